@@ -1,0 +1,5 @@
+import sys
+
+from facepuppet.cli import main
+
+sys.exit(main())

@@ -1,0 +1,1 @@
+"""Export: glTF morph-weight animation, Live Link Face CSV, preview rendering, smoothing."""

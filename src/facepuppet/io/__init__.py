@@ -1,0 +1,1 @@
+"""Input and output: frame sources, characters (glTF/GLB, OBJ), performer examples, track and rig files."""

@@ -1,0 +1,142 @@
+"""Frame sources: one reader over a video file, a still image, a folder of images, or a camera.
+
+Every source yields RGB uint8 frames of shape (H, W, 3) lazily, knows its frame rate and frame size, and is a
+context manager. A camera is named ``camera:N`` (device N); tests stand a video file in for it with
+``camera:path/to/video.mp4``.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+
+from facepuppet.errors import FacepuppetError
+
+__all__ = ["MediaSource", "open_media", "IMAGE_SUFFIXES", "is_still"]
+
+IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png", ".ppm", ".pgm", ".bmp", ".tif", ".tiff", ".webp")
+_STILL_FPS = 30.0
+
+
+def is_still(path: str | os.PathLike) -> bool:
+    """True if ``path`` names a single image file."""
+    return Path(path).suffix.lower() in IMAGE_SUFFIXES
+
+
+class MediaSource:
+    """Frames from one medium. Use :func:`open_media` to make one.
+
+    Attributes
+    ----------
+    path : str
+        What was opened.
+    fps : float
+        Frames per second (30 for stills and image folders).
+    frame_size : (int, int)
+        Width and height of the frames in pixels.
+    frame_count : int or None
+        Number of frames if known in advance (None for a camera).
+    is_camera : bool
+    """
+
+    def __init__(self, path: str, fps: float, frame_size: tuple[int, int], frame_count: int | None,
+                 frames: Iterator[np.ndarray], closer=None, is_camera: bool = False):
+        self.path = path
+        self.fps = fps
+        self.frame_size = frame_size
+        self.frame_count = frame_count
+        self.is_camera = is_camera
+        self._frames = frames
+        self._closer = closer
+
+    def __iter__(self) -> Iterator[np.ndarray]:
+        return self._frames
+
+    def __enter__(self) -> MediaSource:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        if self._closer is not None:
+            self._closer()
+            self._closer = None
+
+
+def _read_image(path: Path) -> np.ndarray:
+    import cv2
+
+    bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if bgr is None:
+        raise FacepuppetError(f"{path}: cannot read image (unreadable or not an image)")
+    return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+
+
+def _open_video(path: str, label: str, camera: bool) -> MediaSource:
+    import cv2
+
+    cap = cv2.VideoCapture(int(path) if path.isdigit() else path)
+    if not cap.isOpened():
+        raise FacepuppetError(f"{label}: cannot open {'camera' if camera else 'video'}")
+    ok, first = cap.read()
+    if not ok or first is None:
+        cap.release()
+        raise FacepuppetError(f"{label}: no frames could be read (empty or corrupt {'camera' if camera else 'video'})")
+    fps = cap.get(cv2.CAP_PROP_FPS)
+    fps = float(fps) if fps and np.isfinite(fps) and fps > 0 else _STILL_FPS
+    count = int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) if not camera else None
+    if count is not None and count <= 0:
+        count = None
+    h, w = first.shape[:2]
+
+    def frames() -> Iterator[np.ndarray]:
+        yield cv2.cvtColor(first, cv2.COLOR_BGR2RGB)
+        while True:
+            ok, bgr = cap.read()
+            if not ok or bgr is None:
+                return
+            yield cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+
+    return MediaSource(label, fps, (w, h), count, frames(), closer=cap.release, is_camera=camera)
+
+
+def open_media(path: str | os.PathLike) -> MediaSource:
+    """Open a video file, an image, a folder of images, or ``camera:N`` and return its frame source.
+
+    Raises
+    ------
+    FacepuppetError
+        If the medium is missing, unreadable, empty, or of no known kind; the message names it.
+    """
+    label = str(path)
+    if label.startswith("camera:"):
+        return _open_video(label[len("camera:"):], label, camera=True)
+    p = Path(path)
+    if not p.exists():
+        raise FacepuppetError(f"{label}: no such file or folder")
+    if p.is_dir():
+        files = sorted(f for f in p.iterdir() if f.suffix.lower() in IMAGE_SUFFIXES)
+        if not files:
+            raise FacepuppetError(f"{label}: folder holds no images ({', '.join(IMAGE_SUFFIXES)})")
+        first = _read_image(files[0])
+        h, w = first.shape[:2]
+
+        def frames() -> Iterator[np.ndarray]:
+            yield first
+            for f in files[1:]:
+                img = _read_image(f)
+                if img.shape[:2] != (h, w):
+                    raise FacepuppetError(f"{f}: size {img.shape[1]}x{img.shape[0]} differs from {w}x{h} "
+                                          f"of the folder's first image")
+                yield img
+
+        return MediaSource(label, _STILL_FPS, (w, h), len(files), frames())
+    if is_still(p):
+        img = _read_image(p)
+        h, w = img.shape[:2]
+        return MediaSource(label, _STILL_FPS, (w, h), 1, iter([img]))
+    return _open_video(label, label, camera=False)
