@@ -101,16 +101,19 @@ def curve_points(curves: np.ndarray) -> np.ndarray:
     return pts.reshape(*curves.shape[:-3], -1, curves.shape[-1])
 
 
-def fit_bezier(points: np.ndarray) -> np.ndarray:
+def fit_bezier(points: np.ndarray, iterations: int = 4) -> np.ndarray:
     """Least-squares cubic Bezier through ordered points, ends fixed at the first and last point.
 
-    The points are parameterised by chord length; the two inner control points solve the linear
-    least-squares problem of the Bernstein basis. With fewer than four points the curve is the straight
-    or quadratic one through them.
+    The points start parameterised by chord length; the two inner control points solve the linear
+    least-squares problem of the Bernstein basis; then each point's parameter is moved to its nearest point on
+    the curve by a Newton step and the solve repeated (``iterations`` times). With two points the curve is the
+    straight line through them.
 
     Parameters
     ----------
     points : (K, D) float, K >= 2
+    iterations : int
+        Reparameterisation rounds (0 keeps the chord-length parameters).
 
     Returns
     -------
@@ -121,10 +124,29 @@ def fit_bezier(points: np.ndarray) -> np.ndarray:
         raise ValueError(f"points must be (K, D) with K >= 2, got shape {pts.shape}")
     p0, p3 = pts[0], pts[-1]
     chord = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))]
+    line = np.stack([p0, p0 + (p3 - p0) / 3.0, p0 + 2.0 * (p3 - p0) / 3.0, p3])
     if len(pts) == 2 or chord[-1] <= 0:
-        return np.stack([p0, p0 + (p3 - p0) / 3.0, p0 + 2.0 * (p3 - p0) / 3.0, p3])
+        return line
     s = chord / chord[-1]
-    B = bernstein(s)
-    rhs = pts - np.outer(B[:, 0], p0) - np.outer(B[:, 3], p3)
-    inner, *_ = np.linalg.lstsq(B[:, 1:3], rhs, rcond=None)
-    return np.vstack([p0, inner, p3])
+    ctrl = line
+    for it in range(iterations + 1):
+        B = bernstein(s)
+        rhs = pts - np.outer(B[:, 0], p0) - np.outer(B[:, 3], p3)
+        inner, *_ = np.linalg.lstsq(B[:, 1:3], rhs, rcond=None)
+        ctrl = np.vstack([p0, inner, p3])
+        if it == iterations:
+            break
+        # Newton step on each inner parameter towards the foot of the perpendicular from its point.
+        d1 = 3.0 * np.diff(ctrl, axis=0)
+        d2 = 2.0 * np.diff(d1, axis=0)
+        t = s[:, None]
+        c = B @ ctrl - pts
+        c1 = (1 - t) ** 2 * d1[0] + 2 * t * (1 - t) * d1[1] + t**2 * d1[2]
+        c2 = (1 - t) * d2[0] + t * d2[1]
+        num = (c * c1).sum(1)
+        den = (c1 * c1).sum(1) + (c * c2).sum(1)
+        step = np.where(np.abs(den) > 1e-12, num / np.where(den == 0, 1, den), 0.0)
+        s_new = np.clip(s - step, 0.0, 1.0)
+        s_new[0], s_new[-1] = 0.0, 1.0
+        s = np.maximum.accumulate(s_new)
+    return ctrl
