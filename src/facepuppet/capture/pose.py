@@ -1,0 +1,397 @@
+"""Head pose from stable facial features and a generic 3D face, and feature points with the pose removed.
+
+Head coordinates (right-handed, centimetres): origin midway between the inner eye corners, **x to the
+performer's left**, **y up**, **z out of the face** (towards a camera the performer looks into). Camera
+coordinates are OpenCV's: x right, y down, z forward along the optical axis. A head seen frontally and upright
+therefore has rotation ``diag(1, -1, -1)``; a point maps as ``x_cam = R @ x_head + t``.
+
+The generic face is a table of named landmarks of an average adult face, built from textbook anthropometric
+proportions (intercanthal width about 3.2 cm, biocular width about 9 cm, mouth width about 5 cm, nasal tip
+about 2.4 cm proud of the inner eye corners). It is a prior, not a model of the performer: the pose needs only
+the rigid, expression-free landmarks (eye corners, nose base), and the feature points take their depth from it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from facepuppet.capture.curves import CURVE_NAMES, curve_points, fit_bezier
+
+__all__ = [
+    "GENERIC_FACE",
+    "GENERIC_CURVE_LANDMARKS",
+    "STABLE_FEATURES",
+    "FRONTAL_ROTATION",
+    "HeadPose",
+    "FailedPose",
+    "default_camera",
+    "generic_curves",
+    "generic_points",
+    "estimate_pose",
+    "pose_points_from_curves",
+    "points_in_head",
+]
+
+# Left half of the generic face (x > 0 is the performer's left); the right half is its mirror image.
+_LEFT_HALF: dict[str, tuple[float, float, float]] = {
+    "brow_left_0": (1.7, 1.50, 0.20),   # inner end
+    "brow_left_1": (2.6, 1.95, 0.15),
+    "brow_left_2": (3.5, 2.10, -0.20),
+    "brow_left_3": (4.4, 1.90, -0.80),
+    "brow_left_4": (5.1, 1.40, -1.60),  # outer end
+    "eye_left_inner": (1.6, 0.00, 0.00),
+    "eye_left_upper_1": (2.4, 0.45, 0.15),
+    "eye_left_upper_2": (3.6, 0.50, -0.20),
+    "eye_left_outer": (4.5, 0.15, -1.20),
+    "eye_left_lower_1": (2.5, -0.40, 0.05),
+    "eye_left_lower_2": (3.6, -0.40, -0.30),
+    "nostril_left_mid": (0.7, -4.40, 0.70),
+    "ala_left": (1.4, -4.20, 0.20),
+    "lip_upper_outer_left_1": (0.6, -5.85, 1.20),
+    "lip_upper_outer_left_2": (1.5, -6.10, 0.80),
+    "mouth_left": (2.5, -6.60, -0.30),
+    "lip_lower_outer_left_1": (1.8, -7.10, 0.40),
+    "lip_lower_outer_left_2": (0.9, -7.55, 0.90),
+    "lip_upper_inner_left": (0.9, -6.55, 0.80),
+    "mouth_inner_left": (2.2, -6.60, 0.00),
+    "lip_lower_inner_left": (0.9, -6.60, 0.80),
+}
+_MIDLINE: dict[str, tuple[float, float, float]] = {
+    "nasion": (0.0, 0.90, 0.60),
+    "nose_tip": (0.0, -3.60, 2.40),
+    "nose_base": (0.0, -4.50, 0.90),
+    "lip_upper_outer_mid": (0.0, -5.90, 1.30),
+    "lip_upper_inner_mid": (0.0, -6.55, 1.00),
+    "lip_lower_inner_mid": (0.0, -6.60, 1.00),
+    "lip_lower_outer_mid": (0.0, -7.70, 1.10),
+    "chin": (0.0, -10.50, 0.60),
+}
+
+
+def _mirror(table: dict[str, tuple[float, float, float]]) -> dict[str, tuple[float, float, float]]:
+    return {k.replace("left", "right"): (-x, y, z) for k, (x, y, z) in table.items()}
+
+
+#: Named landmarks of the generic face, head coordinates in cm (see the module docstring).
+GENERIC_FACE: dict[str, tuple[float, float, float]] = {**_LEFT_HALF, **_mirror(_LEFT_HALF), **_MIDLINE}
+
+#: Landmarks of the generic face along each curve of the vocabulary, in the curve's direction (DESIGN.md).
+GENERIC_CURVE_LANDMARKS: dict[str, tuple[str, ...]] = {
+    "brow_left": tuple(f"brow_left_{i}" for i in range(5)),
+    "brow_right": tuple(f"brow_right_{i}" for i in range(5)),
+    "eye_left_upper": ("eye_left_inner", "eye_left_upper_1", "eye_left_upper_2", "eye_left_outer"),
+    "eye_left_lower": ("eye_left_inner", "eye_left_lower_1", "eye_left_lower_2", "eye_left_outer"),
+    "eye_right_upper": ("eye_right_inner", "eye_right_upper_1", "eye_right_upper_2", "eye_right_outer"),
+    "eye_right_lower": ("eye_right_inner", "eye_right_lower_1", "eye_right_lower_2", "eye_right_outer"),
+    "lip_upper_outer": ("mouth_right", "lip_upper_outer_right_2", "lip_upper_outer_right_1", "lip_upper_outer_mid",
+                        "lip_upper_outer_left_1", "lip_upper_outer_left_2", "mouth_left"),
+    "lip_lower_outer": ("mouth_right", "lip_lower_outer_right_1", "lip_lower_outer_right_2", "lip_lower_outer_mid",
+                        "lip_lower_outer_left_2", "lip_lower_outer_left_1", "mouth_left"),
+    "lip_upper_inner": ("mouth_inner_right", "lip_upper_inner_right", "lip_upper_inner_mid", "lip_upper_inner_left",
+                        "mouth_inner_left"),
+    "lip_lower_inner": ("mouth_inner_right", "lip_lower_inner_right", "lip_lower_inner_mid", "lip_lower_inner_left",
+                        "mouth_inner_left"),
+    "nostril_left": ("nose_base", "nostril_left_mid", "ala_left"),
+    "nostril_right": ("ala_right", "nostril_right_mid", "nose_base"),
+}
+
+#: Landmarks that hardly move with expression; the default input of :func:`estimate_pose`.
+STABLE_FEATURES: tuple[str, ...] = (
+    "eye_right_outer", "eye_right_inner", "eye_left_inner", "eye_left_outer", "nose_base", "ala_right", "ala_left",
+)
+
+#: Where each stable landmark sits on the curves: (curve, index of the control point, 0 or 3).
+_CURVE_ENDPOINTS: dict[str, tuple[str, int]] = {
+    "eye_right_outer": ("eye_right_upper", 3),
+    "eye_right_inner": ("eye_right_upper", 0),
+    "eye_left_inner": ("eye_left_upper", 0),
+    "eye_left_outer": ("eye_left_upper", 3),
+    "nose_base": ("nostril_left", 0),
+    "ala_left": ("nostril_left", 3),
+    "ala_right": ("nostril_right", 0),
+    "mouth_right": ("lip_upper_outer", 0),
+    "mouth_left": ("lip_upper_outer", 3),
+}
+
+#: Rotation of a frontal, upright head (head x left = camera x right, head y up = camera -y, z towards camera).
+FRONTAL_ROTATION = np.diag([1.0, -1.0, -1.0])
+
+#: Largest mean reprojection error accepted, as a fraction of the inner-to-outer eye-corner span in the image.
+_MAX_REPROJECTION = 0.35
+
+
+def default_camera(frame_size: tuple[int, int] | np.ndarray, focal: float | None = None) -> np.ndarray:
+    """A pinhole camera for frames of ``frame_size`` (width, height): principal point at the centre.
+
+    The default focal length is the larger frame side in pixels (a field of view of about 53 degrees across
+    that side, a typical webcam).
+
+    Returns
+    -------
+    (3, 3) float
+        The camera matrix K.
+    """
+    w, h = (float(v) for v in frame_size)
+    f = float(focal) if focal is not None else max(w, h)
+    if not (w > 0 and h > 0 and f > 0):
+        raise ValueError(f"frame_size and focal must be positive, got {frame_size} and {focal}")
+    return np.array([[f, 0.0, w / 2.0], [0.0, f, h / 2.0], [0.0, 0.0, 1.0]])
+
+
+@dataclass(frozen=True)
+class HeadPose:
+    """A solved head pose.
+
+    Attributes
+    ----------
+    rotation : (3, 3) float
+        Head-to-camera rotation.
+    translation : (3,) float
+        Head origin in camera coordinates, cm.
+    camera_matrix : (3, 3) float
+        The pinhole camera the pose was solved with.
+    reprojection_error : float
+        Mean distance in pixels between the given image points and the generic face projected with this pose.
+    """
+
+    rotation: np.ndarray
+    translation: np.ndarray
+    camera_matrix: np.ndarray
+    reprojection_error: float = 0.0
+
+    def __bool__(self) -> bool:
+        return True
+
+    def project(self, points_head: np.ndarray) -> np.ndarray:
+        """Project head-coordinate points (N, 3) into the image, (N, 2) pixels."""
+        cam = np.asarray(points_head, dtype=float) @ self.rotation.T + self.translation
+        uv = cam @ self.camera_matrix.T
+        return uv[:, :2] / uv[:, 2:3]
+
+    def up_vector_image(self, at: np.ndarray | None = None) -> np.ndarray:
+        """The head's up direction (+y of head coordinates) as a unit vector in the image, (2,).
+
+        Parameters
+        ----------
+        at : (3,) float, optional
+            Head-coordinate point where the direction is taken (default the head origin); perspective makes
+            it vary slightly across the face.
+
+        Returns
+        -------
+        (2,) float
+            Unit vector in pixels (x right, y down); an upright head gives about (0, -1).
+        """
+        p = np.zeros(3) if at is None else np.asarray(at, dtype=float)
+        uv = self.project(np.stack([p, p + np.array([0.0, 1.0, 0.0])]))
+        d = uv[1] - uv[0]
+        n = np.hypot(*d)
+        return d / n if n > 0 else np.array([0.0, -1.0])
+
+    def angles(self) -> np.ndarray:
+        """Yaw, pitch, roll in radians relative to a frontal upright head, (3,).
+
+        Defined by ``R = FRONTAL_ROTATION @ Ry(yaw) @ Rx(pitch) @ Rz(roll)``, rotations about the head's own
+        y (up), x (left) and z (forward) axes, right-handed.
+        """
+        m = FRONTAL_ROTATION @ self.rotation  # Ry(yaw) Rx(pitch) Rz(roll)
+        pitch = np.arcsin(np.clip(-m[1, 2], -1.0, 1.0))
+        yaw = np.arctan2(m[0, 2], m[2, 2])
+        roll = np.arctan2(m[1, 0], m[1, 1])
+        return np.array([yaw, pitch, roll])
+
+
+@dataclass(frozen=True)
+class FailedPose:
+    """A pose that could not be solved; falsy, with the reason in words."""
+
+    reason: str
+    rotation: np.ndarray = field(default_factory=lambda: np.full((3, 3), np.nan))
+    translation: np.ndarray = field(default_factory=lambda: np.full(3, np.nan))
+
+    def __bool__(self) -> bool:
+        return False
+
+
+def generic_curves(curve_names: tuple[str, ...] = CURVE_NAMES) -> np.ndarray:
+    """The feature curves of the generic face in head coordinates, (C, 4, 3) control points, cm."""
+    return np.stack([fit_bezier(np.array([GENERIC_FACE[n] for n in GENERIC_CURVE_LANDMARKS[c]]))
+                     for c in curve_names])
+
+
+_GENERIC_CURVES = generic_curves()
+#: (P, 3) generic feature points in POINT_NAMES order (module constant; do not modify).
+_GENERIC_POINTS = curve_points(_GENERIC_CURVES)
+_GENERIC_POINTS.setflags(write=False)
+
+
+def generic_points(curve_names: tuple[str, ...] = CURVE_NAMES) -> np.ndarray:
+    """The feature points of the generic face (curves sampled at POINT_SAMPLES), (P, 3) head coordinates."""
+    if tuple(curve_names) == CURVE_NAMES:
+        return _GENERIC_POINTS.copy()
+    return curve_points(generic_curves(curve_names))
+
+
+def pose_points_from_curves(curves: np.ndarray, names: tuple[str, ...] = STABLE_FEATURES,
+                            curve_names: tuple[str, ...] = CURVE_NAMES) -> dict[str, np.ndarray]:
+    """Image positions of landmarks that are curve end points (eye corners, nose base, alae, mouth corners).
+
+    Parameters
+    ----------
+    curves : (C, 4, 2) float
+        Curves in ``curve_names`` order, image pixels.
+    names : tuple of str
+        Landmarks wanted (keys of the generic face that are curve ends).
+
+    Returns
+    -------
+    dict of str -> (2,) float
+    """
+    index = {c: i for i, c in enumerate(curve_names)}
+    out = {}
+    for n in names:
+        if n not in _CURVE_ENDPOINTS:
+            raise ValueError(f"landmark {n!r} is not a curve end point; known: {', '.join(_CURVE_ENDPOINTS)}")
+        c, k = _CURVE_ENDPOINTS[n]
+        out[n] = np.asarray(curves[index[c], k], dtype=float)
+    return out
+
+
+def _as_correspondences(image_points, names):
+    if isinstance(image_points, Mapping):
+        names = [n for n in image_points if n in GENERIC_FACE]
+        unknown = [n for n in image_points if n not in GENERIC_FACE]
+        if unknown:
+            raise ValueError(f"image_points: unknown landmark(s) {', '.join(unknown)}; known: generic face keys")
+        uv = np.array([np.asarray(image_points[n], dtype=float).reshape(2) for n in names]).reshape(-1, 2)
+    else:
+        uv = np.asarray(image_points, dtype=float)
+        names = list(names)
+        if uv.shape != (len(names), 2):
+            raise ValueError(f"image_points must be ({len(names)}, 2) for landmarks {names}, got shape {uv.shape}")
+    xyz = np.array([GENERIC_FACE[n] for n in names], dtype=float).reshape(-1, 3)
+    return names, uv, xyz
+
+
+def estimate_pose(image_points: Mapping[str, np.ndarray] | np.ndarray, frame_size: tuple[int, int] | np.ndarray,
+                  *, focal: float | None = None, previous: HeadPose | FailedPose | None = None,
+                  names: tuple[str, ...] = STABLE_FEATURES) -> HeadPose | FailedPose:
+    """Head pose from image landmarks and the generic face (Perspective-n-Point, iterative).
+
+    Parameters
+    ----------
+    image_points : dict of str -> (2,) float, or (N, 2) float
+        Image positions (pixels) of named landmarks of :data:`GENERIC_FACE`; an array is taken in the order
+        of ``names``. At least four are needed; the stable ones (:data:`STABLE_FEATURES`) give the most
+        expression-independent pose.
+    frame_size : (2,) int
+        Width and height of the frame, for the default camera.
+    focal : float, optional
+        Focal length in pixels (default: see :func:`default_camera`).
+    previous : HeadPose, optional
+        Last frame's pose, used as the initial guess; otherwise a frontal head at the distance the eye span
+        suggests.
+    names : tuple of str
+        Landmark names of an array ``image_points``.
+
+    Returns
+    -------
+    HeadPose or FailedPose
+        FailedPose (falsy) when there are too few finite points, the solver fails, the head would be behind
+        the camera, or the generic face does not fit the points (mean reprojection error above 35 % of the
+        eye-corner span).
+    """
+    import cv2
+
+    names, uv, xyz = _as_correspondences(image_points, names)
+    finite = np.isfinite(uv).all(axis=1)
+    uv, xyz = uv[finite], xyz[finite]
+    names = [n for n, ok in zip(names, finite, strict=True) if ok]
+    if len(uv) < 4:
+        return FailedPose(f"head pose needs at least 4 finite landmarks, got {len(uv)}")
+    K = default_camera(frame_size, focal)
+    if previous:
+        rvec0 = cv2.Rodrigues(np.asarray(previous.rotation, dtype=float))[0]
+        tvec0 = np.asarray(previous.translation, dtype=float).reshape(3, 1).copy()
+    else:
+        # Frontal guess: depth from the image spread of the points against that of the generic face.
+        spread_img = np.sqrt(((uv - uv.mean(0)) ** 2).sum(1).mean())
+        spread_3d = np.sqrt(((xyz[:, :2] - xyz[:, :2].mean(0)) ** 2).sum(1).mean())
+        if not spread_img > 0:
+            return FailedPose("head pose: the landmarks coincide in the image")
+        z = K[0, 0] * spread_3d / spread_img
+        c = (uv.mean(0) - K[:2, 2]) * z / K[0, 0]
+        rvec0 = cv2.Rodrigues(FRONTAL_ROTATION)[0]
+        tvec0 = (np.array([c[0], c[1], z]) - FRONTAL_ROTATION @ xyz.mean(0)).reshape(3, 1)
+    try:
+        ok, rvec, tvec = cv2.solvePnP(xyz, uv, K, None, rvec0.copy(), tvec0.copy(), useExtrinsicGuess=True,
+                                      flags=cv2.SOLVEPNP_ITERATIVE)
+    except cv2.error as e:
+        return FailedPose(f"head pose solver failed ({str(e).strip().splitlines()[-1]})")
+    if not ok or not (np.isfinite(rvec).all() and np.isfinite(tvec).all()):
+        return FailedPose("head pose solver did not converge")
+    R = cv2.Rodrigues(rvec)[0]
+    t = tvec.reshape(3)
+    if t[2] <= 0:
+        return FailedPose("head pose puts the head behind the camera")
+    pose = HeadPose(R, t, K)
+    err = float(np.linalg.norm(pose.project(xyz) - uv, axis=1).mean())
+    scale = _eye_span(names, uv)
+    if scale is not None and err > _MAX_REPROJECTION * scale:
+        return FailedPose(f"generic face does not fit the landmarks (mean reprojection error {err:.1f} px)")
+    return HeadPose(R, t, K, err)
+
+
+def _eye_span(names, uv) -> float | None:
+    idx = {n: i for i, n in enumerate(names)}
+    spans = [np.linalg.norm(uv[idx[a]] - uv[idx[b]]) for a, b in (("eye_left_inner", "eye_left_outer"),
+                                                                  ("eye_right_inner", "eye_right_outer"))
+             if a in idx and b in idx]
+    return float(max(spans)) if spans else None
+
+
+def points_in_head(curves: np.ndarray, pose: HeadPose, frame_size: tuple[int, int] | np.ndarray | None = None,
+                   *, focal: float | None = None, curve_names: tuple[str, ...] = CURVE_NAMES) -> np.ndarray:
+    """Feature points of the curves, back-projected onto the generic face and expressed in head coordinates.
+
+    Each curve is sampled at POINT_SAMPLES; the camera ray through each sample is intersected with the plane
+    through the generic face's corresponding point parallel to the face (normal = the head's z axis), and the
+    intersection is taken into head coordinates, ``x_head = Rᵀ (x_cam − t)``. A point that moves on the face
+    plane at its generic depth is thus recovered exactly whatever the head pose; the z coordinate of every
+    point equals the generic face's.
+
+    Parameters
+    ----------
+    curves : (C, 4, 2) float
+        Control points in image pixels, ``curve_names`` order.
+    pose : HeadPose
+    frame_size : (2,) int, optional
+        Width and height, to build the camera with ``focal``; default the pose's own camera.
+    focal : float, optional
+    curve_names : tuple of str
+
+    Returns
+    -------
+    (C * len(POINT_SAMPLES), 3) float, cm; all NaN if the pose failed.
+    """
+    curves = np.asarray(curves, dtype=float)
+    if curves.shape != (len(curve_names), 4, 2):
+        raise ValueError(f"curves must have shape ({len(curve_names)}, 4, 2), got {curves.shape}")
+    generic = generic_points(curve_names)
+    if not pose:
+        return np.full_like(generic, np.nan)
+    K = pose.camera_matrix if frame_size is None else default_camera(frame_size, focal)
+    R, t = np.asarray(pose.rotation, dtype=float), np.asarray(pose.translation, dtype=float)
+    uv = curve_points(curves)                                       # (P, 2)
+    rays = np.column_stack([(uv[:, 0] - K[0, 2]) / K[0, 0], (uv[:, 1] - K[1, 2]) / K[1, 1], np.ones(len(uv))])
+    normal = R[:, 2]                                                # head z axis in the camera
+    anchor = generic @ R.T + t                                      # generic points in the camera
+    denom = rays @ normal
+    with np.errstate(divide="ignore", invalid="ignore"):
+        depth = (anchor @ normal) / denom                           # ray parameter: X = depth * ray
+        depth = np.where(np.abs(denom) > 1e-6, depth, np.nan)
+    cam = rays * depth[:, None]
+    return (cam - t) @ R                                            # Rᵀ (x − t), row-wise

@@ -1,0 +1,134 @@
+"""Head pose from the generic face, and feature points with the pose removed."""
+
+import cv2
+import numpy as np
+import pytest
+
+from facepuppet.capture.curves import CURVE_NAMES, curve_points
+from facepuppet.capture.pose import (
+    FRONTAL_ROTATION,
+    GENERIC_FACE,
+    STABLE_FEATURES,
+    FailedPose,
+    HeadPose,
+    default_camera,
+    estimate_pose,
+    generic_curves,
+    generic_points,
+    points_in_head,
+    pose_points_from_curves,
+)
+
+SIZE = (640, 480)
+
+
+def rotation(yaw=0.0, pitch=0.0, roll=0.0):
+    """Head-to-camera rotation of a head turned by yaw/pitch/roll (degrees) about its own y, x, z axes."""
+    y, p, r = np.radians([yaw, pitch, roll])
+    Ry = cv2.Rodrigues(np.array([0.0, y, 0.0]))[0]
+    Rx = cv2.Rodrigues(np.array([p, 0.0, 0.0]))[0]
+    Rz = cv2.Rodrigues(np.array([0.0, 0.0, r]))[0]
+    return FRONTAL_ROTATION @ Ry @ Rx @ Rz
+
+
+def project(points, R, t, size=SIZE):
+    return HeadPose(R, t, default_camera(size)).project(points)
+
+
+def angle_between(R1, R2):
+    return np.degrees(np.arccos(np.clip((np.trace(R1.T @ R2) - 1) / 2, -1, 1)))
+
+
+def test_frontal_rotation_is_right_handed_and_generic_face_is_symmetric():
+    assert np.isclose(np.linalg.det(FRONTAL_ROTATION), 1.0)
+    for name, (x, y, z) in GENERIC_FACE.items():
+        if "left" in name:
+            assert np.allclose(GENERIC_FACE[name.replace("left", "right")], (-x, y, z))
+    # the performer's left eye appears on the image's right in a frontal view
+    uv = project(np.array([GENERIC_FACE["eye_left_outer"], GENERIC_FACE["eye_right_outer"]]),
+                 FRONTAL_ROTATION, np.array([0, 0, 50.0]))
+    assert uv[0, 0] > SIZE[0] / 2 > uv[1, 0]
+
+
+@pytest.mark.parametrize("yaw,pitch,roll", [(0, 0, 0), (25, -10, 8), (-30, 15, -12), (10, 20, 30)])
+def test_pose_recovers_a_known_rotation_from_noisy_projections(yaw, pitch, roll, rng):
+    R = rotation(yaw, pitch, roll)
+    t = np.array([3.0, -2.0, 55.0])
+    names = STABLE_FEATURES + ("nose_tip", "mouth_left", "mouth_right")
+    xyz = np.array([GENERIC_FACE[n] for n in names])
+    uv = project(xyz, R, t) + rng.normal(0, 0.5, (len(names), 2))
+    pose = estimate_pose(dict(zip(names, uv, strict=True)), SIZE)
+    assert pose
+    assert angle_between(pose.rotation, R) < 2.0
+    assert np.allclose(pose.translation, t, atol=1.5)
+    assert np.allclose(pose.angles(), np.radians([yaw, pitch, roll]), atol=np.radians(2.5))
+    assert pose.reprojection_error < 1.5
+
+
+def test_pose_from_stable_features_only_and_previous_guess(rng):
+    R = rotation(20, 5, -5)
+    t = np.array([0.0, 1.0, 60.0])
+    uv = project(np.array([GENERIC_FACE[n] for n in STABLE_FEATURES]), R, t) + rng.normal(0, 0.3, (7, 2))
+    first = estimate_pose(uv, SIZE)
+    assert first and angle_between(first.rotation, R) < 3.0
+    R2 = rotation(23, 6, -4)
+    uv2 = project(np.array([GENERIC_FACE[n] for n in STABLE_FEATURES]), R2, t)
+    second = estimate_pose(uv2, SIZE, previous=first)
+    assert second and angle_between(second.rotation, R2) < 0.5
+
+
+def test_up_vector_in_the_image_follows_roll():
+    t = np.array([0.0, 0.0, 50.0])
+    assert np.allclose(HeadPose(rotation(), t, default_camera(SIZE)).up_vector_image(), [0, -1], atol=1e-9)
+    # roll the head by +30 degrees about its forward axis: up tilts towards the performer's right (image left)
+    up = HeadPose(rotation(roll=30), t, default_camera(SIZE)).up_vector_image()
+    assert np.allclose(up, [-np.sin(np.radians(30)), -np.cos(np.radians(30))], atol=1e-6)
+
+
+def test_failures_are_falsy_with_a_reason():
+    few = estimate_pose({"eye_left_inner": (1, 2), "eye_left_outer": (5, 2), "nose_base": (3, 8)}, SIZE)
+    assert isinstance(few, FailedPose) and not few and "at least 4" in few.reason
+    nan = estimate_pose(np.full((7, 2), np.nan), SIZE)
+    assert not nan
+    scrambled = estimate_pose(np.random.default_rng(0).uniform(0, 400, (7, 2)), SIZE)
+    assert not scrambled and scrambled.reason
+    with pytest.raises(ValueError, match="unknown landmark"):
+        estimate_pose({"ear": (0, 0)}, SIZE)
+
+
+def test_points_in_head_agree_for_frontal_and_rotated_views(rng):
+    # an expression: the generic curves with the mouth opened and a brow raised, moved within the face plane
+    curves3d = generic_curves()
+    idx = {c: i for i, c in enumerate(CURVE_NAMES)}
+    curves3d[idx["lip_lower_outer"], 1:3, 1] -= 0.8
+    curves3d[idx["lip_lower_inner"], 1:3, 1] -= 0.8
+    curves3d[idx["brow_left"], :, 1] += 0.4
+    expected = curve_points(curves3d)  # the expression's feature points in head coordinates
+    # the edit moved points within planes parallel to the face: depths stay the generic face's
+    assert np.allclose(expected[:, 2], generic_points()[:, 2])
+    assert not np.allclose(expected, generic_points())
+    results = []
+    for R, t in [(rotation(), np.array([0.0, 0.0, 50.0])), (rotation(30, -15, 10), np.array([4.0, -3.0, 65.0]))]:
+        names = STABLE_FEATURES
+        uv_stable = project(np.array([GENERIC_FACE[n] for n in names]), R, t)
+        pose = estimate_pose(uv_stable, SIZE)
+        assert pose
+        image_curves = project(curves3d.reshape(-1, 3), R, t).reshape(-1, 4, 2)
+        pts = points_in_head(image_curves, pose, SIZE)
+        assert pts.shape == (48, 3)
+        results.append(pts)
+        assert np.allclose(pts, expected, atol=0.05)
+    assert np.allclose(results[0], results[1], atol=0.05)
+
+
+def test_points_in_head_of_a_failed_pose_are_nan():
+    pts = points_in_head(np.zeros((12, 4, 2)), FailedPose("lost"), SIZE)
+    assert pts.shape == (48, 3) and np.isnan(pts).all()
+
+
+def test_pose_points_from_curves_reads_curve_ends():
+    curves = np.arange(12 * 4 * 2, dtype=float).reshape(12, 4, 2)
+    pts = pose_points_from_curves(curves)
+    assert set(pts) == set(STABLE_FEATURES)
+    assert np.allclose(pts["eye_left_outer"], curves[CURVE_NAMES.index("eye_left_upper"), 3])
+    assert np.allclose(pts["ala_right"], curves[CURVE_NAMES.index("nostril_right"), 0])
