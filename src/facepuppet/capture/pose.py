@@ -15,10 +15,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 
-from facepuppet.capture.curves import CURVE_NAMES, curve_points, fit_bezier
+from facepuppet.capture.curves import CURVE_NAMES, POINT_SAMPLES, bernstein, curve_points, fit_bezier
 
 __all__ = [
     "GENERIC_FACE",
@@ -135,10 +136,17 @@ def default_camera(frame_size: tuple[int, int] | np.ndarray, focal: float | None
         The camera matrix K.
     """
     w, h = (float(v) for v in frame_size)
-    f = float(focal) if focal is not None else max(w, h)
+    return _camera(w, h, None if focal is None else float(focal)).copy()
+
+
+@lru_cache(maxsize=16)
+def _camera(w: float, h: float, focal: float | None) -> np.ndarray:
+    f = focal if focal is not None else max(w, h)
     if not (w > 0 and h > 0 and f > 0):
-        raise ValueError(f"frame_size and focal must be positive, got {frame_size} and {focal}")
-    return np.array([[f, 0.0, w / 2.0], [0.0, f, h / 2.0], [0.0, 0.0, 1.0]])
+        raise ValueError(f"frame size and focal length must be positive, got {w:g}x{h:g} and {focal}")
+    K = np.array([[f, 0.0, w / 2.0], [0.0, f, h / 2.0], [0.0, 0.0, 1.0]])
+    K.setflags(write=False)
+    return K
 
 
 @dataclass(frozen=True)
@@ -226,6 +234,7 @@ _GENERIC_CURVES = generic_curves()
 #: (P, 3) generic feature points in POINT_NAMES order (module constant; do not modify).
 _GENERIC_POINTS = curve_points(_GENERIC_CURVES)
 _GENERIC_POINTS.setflags(write=False)
+_SAMPLE_BASIS = bernstein(np.asarray(POINT_SAMPLES))
 
 
 def generic_points(curve_names: tuple[str, ...] = CURVE_NAMES) -> np.ndarray:
@@ -260,20 +269,26 @@ def pose_points_from_curves(curves: np.ndarray, names: tuple[str, ...] = STABLE_
     return out
 
 
+@lru_cache(maxsize=64)
+def _generic_landmarks(names: tuple[str, ...]) -> np.ndarray:
+    unknown = [n for n in names if n not in GENERIC_FACE]
+    if unknown:
+        raise ValueError(f"image_points: unknown landmark(s) {', '.join(unknown)}; see pose.GENERIC_FACE")
+    xyz = np.array([GENERIC_FACE[n] for n in names], dtype=float).reshape(-1, 3)
+    xyz.setflags(write=False)
+    return xyz
+
+
 def _as_correspondences(image_points, names):
     if isinstance(image_points, Mapping):
-        names = [n for n in image_points if n in GENERIC_FACE]
-        unknown = [n for n in image_points if n not in GENERIC_FACE]
-        if unknown:
-            raise ValueError(f"image_points: unknown landmark(s) {', '.join(unknown)}; known: generic face keys")
+        names = tuple(image_points)
         uv = np.array([np.asarray(image_points[n], dtype=float).reshape(2) for n in names]).reshape(-1, 2)
     else:
         uv = np.asarray(image_points, dtype=float)
-        names = list(names)
+        names = tuple(names)
         if uv.shape != (len(names), 2):
             raise ValueError(f"image_points must be ({len(names)}, 2) for landmarks {names}, got shape {uv.shape}")
-    xyz = np.array([GENERIC_FACE[n] for n in names], dtype=float).reshape(-1, 3)
-    return names, uv, xyz
+    return names, uv, _generic_landmarks(names)
 
 
 def estimate_pose(image_points: Mapping[str, np.ndarray] | np.ndarray, frame_size: tuple[int, int] | np.ndarray,
@@ -308,11 +323,12 @@ def estimate_pose(image_points: Mapping[str, np.ndarray] | np.ndarray, frame_siz
 
     names, uv, xyz = _as_correspondences(image_points, names)
     finite = np.isfinite(uv).all(axis=1)
-    uv, xyz = uv[finite], xyz[finite]
-    names = [n for n, ok in zip(names, finite, strict=True) if ok]
+    if not finite.all():
+        uv, xyz = uv[finite], xyz[finite]
+        names = tuple(n for n, ok in zip(names, finite, strict=True) if ok)
     if len(uv) < 4:
         return FailedPose(f"head pose needs at least 4 finite landmarks, got {len(uv)}")
-    K = default_camera(frame_size, focal)
+    K = _camera(float(frame_size[0]), float(frame_size[1]), None if focal is None else float(focal))
     if previous:
         rvec0 = cv2.Rodrigues(np.asarray(previous.rotation, dtype=float))[0]
         tvec0 = np.asarray(previous.translation, dtype=float).reshape(3, 1).copy()
@@ -337,8 +353,8 @@ def estimate_pose(image_points: Mapping[str, np.ndarray] | np.ndarray, frame_siz
     t = tvec.reshape(3)
     if t[2] <= 0:
         return FailedPose("head pose puts the head behind the camera")
-    pose = HeadPose(R, t, K)
-    err = float(np.linalg.norm(pose.project(xyz) - uv, axis=1).mean())
+    proj = (xyz @ R.T + t) @ K.T
+    err = float(np.sqrt(((proj[:, :2] / proj[:, 2:3] - uv) ** 2).sum(1)).mean())
     scale = _eye_span(names, uv)
     if scale is not None and err > _MAX_REPROJECTION * scale:
         return FailedPose(f"generic face does not fit the landmarks (mean reprojection error {err:.1f} px)")
@@ -380,12 +396,15 @@ def points_in_head(curves: np.ndarray, pose: HeadPose, frame_size: tuple[int, in
     curves = np.asarray(curves, dtype=float)
     if curves.shape != (len(curve_names), 4, 2):
         raise ValueError(f"curves must have shape ({len(curve_names)}, 4, 2), got {curves.shape}")
-    generic = generic_points(curve_names)
+    generic = _GENERIC_POINTS if tuple(curve_names) == CURVE_NAMES else generic_points(curve_names)
     if not pose:
-        return np.full_like(generic, np.nan)
-    K = pose.camera_matrix if frame_size is None else default_camera(frame_size, focal)
+        return np.full(generic.shape, np.nan)
+    if frame_size is None:
+        K = pose.camera_matrix
+    else:
+        K = _camera(float(frame_size[0]), float(frame_size[1]), None if focal is None else float(focal))
     R, t = np.asarray(pose.rotation, dtype=float), np.asarray(pose.translation, dtype=float)
-    uv = curve_points(curves)                                       # (P, 2)
+    uv = np.matmul(_SAMPLE_BASIS, curves).reshape(-1, 2)          # curve_points: (P, 2)
     rays = np.column_stack([(uv[:, 0] - K[0, 2]) / K[0, 0], (uv[:, 1] - K[1, 2]) / K[1, 1], np.ones(len(uv))])
     normal = R[:, 2]                                                # head z axis in the camera
     anchor = generic @ R.T + t                                      # generic points in the camera
