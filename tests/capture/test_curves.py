@@ -61,3 +61,13 @@ def test_curve_points_samples_each_curve_in_order(rng):
     np.testing.assert_allclose(pts[:, 0], curves[:, 0, 0])          # s = 0: first control point
     np.testing.assert_allclose(pts[:, k - 1], curves[:, 0, 3])      # s = 1: last control point
     np.testing.assert_allclose(pts[1, k:2 * k], bernstein(np.array(POINT_SAMPLES)) @ curves[1, 1])
+
+
+def test_fit_bezier_through_three_points_passes_through_the_middle_one():
+    pts = np.array([[100.0, 200.0], [110.0, 205.0], [125.0, 202.0]])
+    ctrl = fit_bezier(pts)
+    assert np.allclose(ctrl[[0, 3]], pts[[0, 2]])
+    samples = bezier_points(ctrl, 401)
+    assert np.linalg.norm(samples - pts[1], axis=1).min() < 0.1
+    # stays near the points: no control point pulled towards the origin
+    assert np.all(np.abs(ctrl - pts.mean(0)) < 20)

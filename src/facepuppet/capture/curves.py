@@ -107,7 +107,7 @@ def fit_bezier(points: np.ndarray, iterations: int = 4) -> np.ndarray:
     The points start parameterised by chord length; the two inner control points solve the linear
     least-squares problem of the Bernstein basis; then each point's parameter is moved to its nearest point on
     the curve by a Newton step and the solve repeated (``iterations`` times). With two points the curve is the
-    straight line through them.
+    straight line through them, with three the quadratic through them (as a cubic).
 
     Parameters
     ----------
@@ -128,6 +128,11 @@ def fit_bezier(points: np.ndarray, iterations: int = 4) -> np.ndarray:
     if len(pts) == 2 or chord[-1] <= 0:
         return line
     s = chord / chord[-1]
+    if len(pts) == 3:
+        # Two unknowns, one equation: take the quadratic through the three points, raised to cubic degree.
+        u = min(max(s[1], 1e-3), 1.0 - 1e-3)
+        c = (pts[1] - (1 - u) ** 2 * p0 - u**2 * p3) / (2.0 * u * (1 - u))
+        return np.stack([p0, p0 + 2.0 * (c - p0) / 3.0, p3 + 2.0 * (c - p3) / 3.0, p3])
     ctrl = line
     for it in range(iterations + 1):
         B = bernstein(s)
