@@ -1,0 +1,52 @@
+"""One place where the pipeline asks the capture stage for a track (keeps calibrate and animate thin)."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+from facepuppet.io.track import Track
+
+__all__ = ["TrackerOptions", "get_track", "tracker_kwargs"]
+
+
+@dataclass(frozen=True, kw_only=True)
+class TrackerOptions:
+    """Which tracker makes the features.
+
+    Attributes
+    ----------
+    backend : str
+        ``"color"`` (the paper's tracker) or ``"mediapipe"`` (landmark backend, optional extra).
+    profile : str or None
+        Performer profile of the colour tracker (``facepuppet track --profile``).
+    model : str or None
+        MediaPipe Face Landmarker ``.task`` file; default ``$FACEPUPPET_FACE_LANDMARKER``.
+    progress : bool or None
+        Progress bar; None shows it when stderr is a terminal.
+    """
+
+    backend: str = "color"
+    profile: str | None = None
+    model: str | None = None
+    progress: bool | None = None
+
+
+def tracker_kwargs(options: TrackerOptions) -> dict:
+    """The constructor options of the chosen backend."""
+    if options.backend == "mediapipe":
+        return {"model_path": options.model}
+    if options.backend == "color" and options.profile is not None:
+        return {"profile": options.profile}
+    return {}
+
+
+def get_track(media: str | os.PathLike, options: TrackerOptions, *, max_frames: int | None = None) -> Track:
+    """Track ``media`` with the chosen backend (see :mod:`facepuppet.capture.tracking`)."""
+    from facepuppet.capture.tracking import make_tracker, track_media
+
+    tracker = make_tracker(options.backend, **tracker_kwargs(options))
+    try:
+        return track_media(media, tracker, progress=options.progress is not False, max_frames=max_frames)
+    finally:
+        tracker.close()

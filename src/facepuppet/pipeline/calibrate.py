@@ -1,0 +1,629 @@
+"""Make a performer's key expressions (the paper's source base and source examples) from footage.
+
+Three ways, all ending in a :class:`PerformerExamples` (saved as the performer examples file that
+``facepuppet rig --performer`` reads):
+
+- :func:`calibrate_marks`: a calibration video and a marks file that names the key expression shown at a
+  time or frame; the feature points are averaged over the steadiest few frames near each mark;
+- :func:`calibrate_auto`: for characters whose key-models carry ARKit names, the landmark backend's
+  blendshape scores pick the frame that best shows each key-model, and the most relaxed frame as neutral;
+- :func:`calibrate_interactive`: from a camera; the key-model's name and a picture of it are shown, the
+  performer copies it and presses a key.
+
+:func:`check_examples` then names key expressions too close to each other to tell apart, or barely different
+from neutral (the paper's mapping cannot separate them, §5).
+
+Marks file
+----------
+One mark per line, ``WHEN,NAME``; blank lines and lines starting with ``#`` are ignored, and so is a header
+line ``time,name`` (or ``frame,name``). ``WHEN`` is a time in seconds written ``1.5s``, a clock time
+``00:01.5`` (``MM:SS.s`` or ``HH:MM:SS.s``), or a frame index as a plain integer (0 = first frame).
+``NAME`` is ``neutral`` for the neutral face, otherwise a key-model name of the character. Example::
+
+    # time_or_frame,name
+    0.5s,neutral
+    00:02.0,jawOpen
+    95,mouthSmile
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import re
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from facepuppet.errors import FacepuppetError
+from facepuppet.io.track import Track
+from facepuppet.pipeline._arkit import arkit_parts
+from facepuppet.pipeline._tracking import TrackerOptions, get_track, tracker_kwargs
+
+__all__ = [
+    "CalibrateConfig",
+    "PerformerExamples",
+    "Mark",
+    "read_marks",
+    "parse_when",
+    "steadiest_window",
+    "examples_from_marks",
+    "calibrate_marks",
+    "calibrate_auto",
+    "calibrate_interactive",
+    "check_examples",
+    "save_examples",
+    "NEUTRAL",
+]
+
+log = logging.getLogger(__name__)
+
+#: The name that marks the neutral face.
+NEUTRAL = "neutral"
+
+
+@dataclass(frozen=True, kw_only=True)
+class CalibrateConfig:
+    """Options of calibration.
+
+    Attributes
+    ----------
+    tracker : TrackerOptions
+        The tracker that makes the feature points (it must be the one ``animate`` will use).
+    window : int
+        Frames averaged per key expression.
+    search : float
+        Seconds either side of a mark (or of the frame ``--auto`` picked) searched for the steadiest window.
+    min_score : float
+        ``--auto``: a key-model whose blendshape score never reaches this is left out (and reported).
+    min_motion : float
+        A key expression whose RMS displacement from neutral is below ``min_motion`` times the median over all
+        key expressions is reported as barely different from neutral.
+    min_separation : float
+        Two key expressions closer (RMS) than ``min_separation`` times the smaller of their displacements are
+        reported as too close to tell apart.
+    """
+
+    tracker: TrackerOptions = field(default_factory=TrackerOptions)
+    window: int = 5
+    search: float = 0.3
+    min_score: float = 0.3
+    min_motion: float = 0.15
+    min_separation: float = 0.2
+
+    def __post_init__(self) -> None:
+        if self.window < 1:
+            raise ValueError(f"window must be at least 1 frame, got {self.window}")
+        if self.search < 0:
+            raise ValueError(f"search must be >= 0 seconds, got {self.search}")
+
+
+@dataclass(frozen=True)
+class PerformerExamples:
+    """A performer's neutral face and key expressions, as feature points.
+
+    Attributes
+    ----------
+    neutral : (P, D) float
+        Source base S_B.
+    examples : (M, P, D) float
+        Source examples S_i, in ``names`` order.
+    names : tuple of M str
+        Key-model names the examples pair with.
+    point_names : tuple of P str
+        Feature point names (the tracker's).
+    frames : dict of str -> (int, int)
+        For each name (``neutral`` included), the frames ``[start, stop)`` averaged.
+    warnings : tuple of str
+        What :func:`check_examples` found.
+    """
+
+    neutral: np.ndarray
+    examples: np.ndarray
+    names: tuple[str, ...]
+    point_names: tuple[str, ...]
+    frames: dict = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class Mark:
+    """One line of a marks file: the frame and the key-model name (``line`` for messages)."""
+
+    frame: int
+    name: str
+    line: int
+    when: str
+
+
+_CLOCK = re.compile(r"^(?:(\d+):)?(\d+):(\d+(?:\.\d*)?)$")
+
+
+def parse_when(text: str, fps: float) -> int:
+    """Frame index of a marks-file time: ``1.5s`` (seconds), ``00:01.5`` (clock) or ``45`` (frame).
+
+    Raises ValueError for anything else (a bare ``1.5`` is ambiguous and refused).
+    """
+    s = text.strip()
+    if re.fullmatch(r"\d+", s):
+        return int(s)
+    if re.fullmatch(r"\d+(\.\d*)?s", s, re.IGNORECASE) or re.fullmatch(r"\.\d+s", s, re.IGNORECASE):
+        return int(round(float(s[:-1]) * fps))
+    m = _CLOCK.match(s)
+    if m:
+        hours, minutes, seconds = int(m.group(1) or 0), int(m.group(2)), float(m.group(3))
+        return int(round((3600 * hours + 60 * minutes + seconds) * fps))
+    raise ValueError(f"{text!r} is not a time: write seconds as 1.5s, a clock time as 00:01.5, "
+                     f"or a frame as a whole number")
+
+
+def read_marks(path: str | os.PathLike, fps: float, n_frames: int,
+               names: Sequence[str] | None = None) -> list[Mark]:
+    """Read and check a marks file (format in the module docstring).
+
+    Parameters
+    ----------
+    path : str or PathLike
+    fps : float
+        Frame rate of the calibration video (to turn times into frames).
+    n_frames : int
+        Frames in the video; a mark at or past the end is an error.
+    names : sequence of str, optional
+        The character's key-model names; a mark naming anything else is an error.
+
+    Raises
+    ------
+    ValueError
+        Naming the file, the line and what is wrong: unreadable time, unknown name, past the end, a name
+        marked twice, no ``neutral`` mark, no key expression at all.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except (OSError, UnicodeDecodeError) as e:
+        raise ValueError(f"{path}: cannot read marks file ({e})") from e
+    known = None if names is None else set(names) | {NEUTRAL}
+    marks: list[Mark] = []
+    seen: dict[str, int] = {}
+    for no, raw in enumerate(text.splitlines(), start=1):
+        line = raw.strip()
+        if not line or line.startswith("#"):
+            continue
+        parts = [p.strip() for p in re.split(r"[,;\t]", line)]
+        if len(parts) != 2 or not parts[1]:
+            raise ValueError(f"{path} line {no}: expected WHEN,NAME, got {line!r}")
+        when, name = parts
+        if not marks and when.lower() in ("time", "frame", "time_or_frame", "when"):
+            continue
+        try:
+            frame = parse_when(when, fps)
+        except ValueError as e:
+            raise ValueError(f"{path} line {no}: {e}") from None
+        if known is not None and name not in known:
+            raise ValueError(f"{path} line {no}: the character has no key-model named {name!r} "
+                             f"(it has {', '.join(sorted(known - {NEUTRAL}))}; and 'neutral')")
+        if frame >= n_frames:
+            raise ValueError(f"{path} line {no}: {when} ({name}) is past the end of the video "
+                             f"({n_frames} frames, {n_frames / fps:.2f} s)")
+        if name in seen:
+            raise ValueError(f"{path} line {no}: {name!r} is marked twice (first on line {seen[name]})")
+        seen[name] = no
+        marks.append(Mark(frame, name, no, when))
+    if NEUTRAL not in seen:
+        raise ValueError(f"{path}: no mark names the neutral face (a line such as '0.5s,{NEUTRAL}')")
+    if len(marks) < 2:
+        raise ValueError(f"{path}: marks only the neutral face; mark at least one key expression")
+    return marks
+
+
+def steadiest_window(points: np.ndarray, valid: np.ndarray, centre: int, radius: int,
+                     window: int) -> tuple[int, int] | None:
+    """The run of ``window`` valid frames near ``centre`` where the feature points move least.
+
+    Parameters
+    ----------
+    points : (F, P, D) float
+    valid : (F,) bool
+    centre : int
+        The marked frame.
+    radius : int
+        Frames either side of ``centre`` the window may reach.
+    window : int
+        Frames in the window (fewer if the video is shorter).
+
+    Returns
+    -------
+    (start, stop) or None
+        The window ``[start, stop)``: least summed squared frame-to-frame motion, ties to the one nearest
+        ``centre``; None if no run of valid frames of that length lies within reach.
+    """
+    n = len(valid)
+    window = max(1, min(window, n))
+    lo, hi = max(0, centre - radius), min(n, centre + radius + 1)
+    best, best_key = None, None
+    step = np.zeros(n)
+    if n > 1:
+        d = np.diff(points, axis=0)
+        step[1:] = np.einsum("fpd,fpd->f", d, d)
+    for start in range(lo, hi - window + 1):
+        stop = start + window
+        if not valid[start:stop].all():
+            continue
+        motion = float(step[start + 1:stop].sum())
+        key = (motion, abs((start + stop - 1) / 2 - centre))
+        if best_key is None or key < best_key:
+            best, best_key = (start, stop), key
+    return best
+
+
+def _average(track: Track, name: str, centre: int, config: CalibrateConfig) -> tuple[np.ndarray, tuple[int, int]]:
+    radius = int(round(config.search * track.fps))
+    span = steadiest_window(track.points, track.valid, centre, radius, config.window)
+    if span is None:   # too few valid frames for a full window: take whatever valid frames lie within reach
+        lo, hi = max(0, centre - radius), min(track.n_frames, centre + radius + 1)
+        idx = np.flatnonzero(track.valid[lo:hi]) + lo
+        if len(idx) == 0:
+            raise FacepuppetError(f"{name} (frame {centre}): no face was tracked within {config.search:g} s "
+                                  f"of it")
+        span = (int(idx[0]), int(idx[-1]) + 1)
+        return track.points[idx].mean(axis=0), span
+    return track.points[span[0]:span[1]].mean(axis=0), span
+
+
+def examples_from_marks(track: Track, marks: Sequence[Mark], config: CalibrateConfig | None = None,
+                        ) -> PerformerExamples:
+    """Average the feature points around each mark of a tracked calibration video."""
+    config = config or CalibrateConfig()
+    averaged, frames = {}, {}
+    for mark in marks:
+        averaged[mark.name], frames[mark.name] = _average(track, mark.name, mark.frame, config)
+    names = tuple(m.name for m in marks if m.name != NEUTRAL)
+    return _finish(averaged[NEUTRAL], np.stack([averaged[n] for n in names]), names, track.point_names,
+                   frames, config)
+
+
+def _finish(neutral: np.ndarray, examples: np.ndarray, names: tuple[str, ...], point_names: Sequence[str],
+            frames: dict, config: CalibrateConfig) -> PerformerExamples:
+    warnings = check_examples(neutral, examples, names, min_motion=config.min_motion,
+                              min_separation=config.min_separation)
+    for w in warnings:
+        log.warning("%s", w)
+    return PerformerExamples(neutral, examples, names, tuple(point_names), frames, tuple(warnings))
+
+
+def calibrate_marks(media: str | os.PathLike, marks: str | os.PathLike, *, names: Sequence[str] | None = None,
+                    config: CalibrateConfig | None = None, track: Track | None = None) -> PerformerExamples:
+    """Key expressions from a calibration video and a marks file.
+
+    Parameters
+    ----------
+    media : str or PathLike
+        The calibration video (or image folder).
+    marks : str or PathLike
+        The marks file (module docstring).
+    names : sequence of str, optional
+        The character's key-model names, to check the marks against.
+    config : CalibrateConfig, optional
+    track : Track, optional
+        A track of ``media`` made before (skips tracking).
+    """
+    config = config or CalibrateConfig()
+    if track is None:
+        from facepuppet.io.frames import open_media
+
+        with open_media(media) as src:      # check the marks before the (slow) tracking
+            fps, count = src.fps, src.frame_count
+        if count is not None:
+            read_marks(marks, fps, count, names)
+        track = get_track(media, config.tracker)
+    _need_faces(track, media)
+    return examples_from_marks(track, read_marks(marks, track.fps, track.n_frames, names), config)
+
+
+def _need_faces(track: Track, media) -> None:
+    if not np.any(track.valid):
+        raise FacepuppetError(f"{media}: no face was tracked in any frame")
+
+
+# --- automatic calibration from blendshape scores ------------------------------------------------------
+
+def _blendshape_scores(track: Track) -> tuple[np.ndarray, tuple[str, ...]]:
+    extras = track.extras or {}
+    if "blendshapes" not in extras:
+        raise FacepuppetError("--auto needs the landmark backend's blendshape scores, and the track has none "
+                              "(track with --backend mediapipe)")
+    scores = np.asarray(extras["blendshapes"], dtype=float)
+    names = extras.get("blendshape_names")
+    if names is None:
+        from facepuppet.capture.landmarks import BLENDSHAPE_NAMES as names
+    names = tuple(str(n) for n in names)
+    if scores.shape[1] != len(names):
+        raise FacepuppetError(f"track has {scores.shape[1]} blendshape scores but {len(names)} names")
+    return scores, names
+
+
+def _side_mask(points: np.ndarray, side: str, width: float) -> np.ndarray:
+    """(P,) weight in [0, 1] of each neutral feature point on the performer's ``side`` (x > 0 is left)."""
+    x = points[:, 0] - np.median(points[:, 0])
+    s = 1.0 / (1.0 + np.exp(-x / max(width, 1e-9)))
+    return s if side == "left" else 1.0 - s
+
+
+def calibrate_auto(media: str | os.PathLike, names: Sequence[str], *, config: CalibrateConfig | None = None,
+                   scores_track: Track | None = None, track: Track | None = None) -> PerformerExamples:
+    """Key expressions picked from a video by the landmark backend's ARKit blendshape scores.
+
+    For each key-model whose name is an ARKit blendshape (any common spelling, see
+    :func:`facepuppet.pipeline._arkit.arkit_parts`) the frame with the highest score of that blendshape minus
+    the mean score of the other key-models' blendshapes is taken; the neutral face is the valid frame with the
+    lowest total score. Feature points are then averaged over the steadiest window near each pick. A
+    key-model that is one half of a symmetric ARKit shape (``cheekPuff_L``) gets the displacement of its side
+    of the face only. Key-models the performer never shows (score below ``min_score``) and names that are not
+    ARKit's are left out and reported.
+
+    Parameters
+    ----------
+    media : str or PathLike
+        A video of the performer making faces.
+    names : sequence of str
+        The character's key-model names.
+    config : CalibrateConfig, optional
+        ``config.tracker`` makes the feature points; blendshape scores always come from MediaPipe.
+    scores_track : Track, optional
+        A MediaPipe track of ``media`` made before (with ``blendshapes`` in its extras).
+    track : Track, optional
+        A track of ``media`` by ``config.tracker``'s backend made before (defaults to ``scores_track`` when
+        that backend is MediaPipe).
+    """
+    config = config or CalibrateConfig()
+    if scores_track is None:
+        mp_opts = TrackerOptions(backend="mediapipe", model=config.tracker.model, progress=config.tracker.progress)
+        scores_track = get_track(media, mp_opts)
+    if track is None:
+        track = scores_track if config.tracker.backend == "mediapipe" else get_track(media, config.tracker)
+    if track.n_frames != scores_track.n_frames:
+        raise FacepuppetError(f"{media}: the two tracks differ in length ({track.n_frames} and "
+                              f"{scores_track.n_frames} frames)")
+    _need_faces(track, media)
+    scores, score_names = _blendshape_scores(scores_track)
+    col = {n: i for i, n in enumerate(score_names)}
+    ok = track.valid & scores_track.valid & np.isfinite(scores).all(axis=1)
+    if not ok.any():
+        raise FacepuppetError(f"{media}: no frame has both a face and blendshape scores")
+
+    wanted, skipped = [], []
+    for name in names:
+        parts = arkit_parts(name)
+        if parts is None or not all(p in col for p in parts[0]):
+            skipped.append(f"{name} (not an ARKit name)")
+            continue
+        wanted.append((name, [col[p] for p in parts[0]], parts[1]))
+    if not wanted:
+        raise FacepuppetError("--auto: none of the character's key-models carries an ARKit name "
+                              f"({', '.join(names)}); use --marks")
+    s = np.where(ok[:, None], scores, np.nan)
+    per_key = np.stack([s[:, cols].mean(axis=1) for _, cols, _ in wanted], axis=1)      # (F, K)
+    used = sorted({c for _, cols, _ in wanted for c in cols})
+    relax = np.where(ok, np.nan_to_num(s[:, used]).sum(axis=1), np.inf)
+    neutral_frame = int(np.argmin(relax))
+    neutral, neutral_span = _average(track, NEUTRAL, neutral_frame, config)
+
+    frames = {NEUTRAL: neutral_span}
+    chosen, examples = [], []
+    k = per_key.shape[1]
+    for j, (name, _, side) in enumerate(wanted):
+        others = (np.nansum(per_key, axis=1) - per_key[:, j]) / max(k - 1, 1)
+        merit = np.where(ok, per_key[:, j] - others, -np.inf)
+        f = int(np.argmax(merit))
+        if not per_key[f, j] >= config.min_score:
+            skipped.append(f"{name} (never shown: best score {np.nanmax(per_key[:, j]):.2f})")
+            continue
+        pts, span = _average(track, name, f, config)
+        if side is not None:
+            pts = neutral + _side_mask(neutral, side, _face_scale(neutral) * 0.05)[:, None] * (pts - neutral)
+        chosen.append(name)
+        examples.append(pts)
+        frames[name] = span
+    if skipped:
+        log.warning("--auto left out: %s", "; ".join(skipped))
+    if not chosen:
+        raise FacepuppetError(f"{media}: the performer shows none of the key-models clearly "
+                              f"({'; '.join(skipped)})")
+    result = _finish(neutral, np.stack(examples), tuple(chosen), track.point_names, frames, config)
+    left_out = tuple(f"left out {s}" for s in skipped)
+    return PerformerExamples(result.neutral, result.examples, result.names, result.point_names, result.frames,
+                             result.warnings + left_out)
+
+
+# --- interactive calibration from a camera --------------------------------------------------------------
+
+#: Keys that capture the current expression (space, enter) and that cancel (q, Esc).
+CAPTURE_KEYS = (ord(" "), 13, 10)
+CANCEL_KEYS = (ord("q"), 27)
+
+KeySource = Callable[[int, np.ndarray], int]
+"""Called once per camera frame with (frame index, the picture shown); returns a key code or -1."""
+
+
+def _window_key_source(title: str = "facepuppet calibrate") -> KeySource:
+    """Show the picture in an OpenCV window and read the keyboard; a clear error when there is no display."""
+    import sys
+
+    import cv2
+
+    if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        raise FacepuppetError("--camera needs a display to show the key expressions, and none is available "
+                              "(DISPLAY is not set); calibrate from a recorded video with --marks or --auto")
+
+    def show(k: int, picture: np.ndarray) -> int:
+        try:
+            cv2.imshow(title, cv2.cvtColor(picture, cv2.COLOR_RGB2BGR))
+            return int(cv2.waitKey(1))
+        except cv2.error as e:
+            raise FacepuppetError("--camera cannot open a window (OpenCV was built without a GUI, as "
+                                  "opencv-python-headless is); calibrate from a recorded video with --marks "
+                                  "or --auto") from e
+
+    return show
+
+
+def _prompt_picture(frame: np.ndarray, picture: np.ndarray | None, title: str, hint: str) -> np.ndarray:
+    import cv2
+
+    h = frame.shape[0]
+    if picture is None:
+        picture = np.full((h, h // 2, 3), 40, np.uint8)
+    from facepuppet.export.preview import side_by_side
+
+    out = side_by_side(frame, picture).copy()
+    for y, text, scale in ((30, title, 0.8), (h - 15, hint, 0.5)):
+        cv2.putText(out, text, (10, y), cv2.FONT_HERSHEY_SIMPLEX, scale, (0, 0, 0), 3, cv2.LINE_AA)
+        cv2.putText(out, text, (10, y), cv2.FONT_HERSHEY_SIMPLEX, scale, (255, 255, 255), 1, cv2.LINE_AA)
+    return out
+
+
+def calibrate_interactive(camera: str, character, *, config: CalibrateConfig | None = None,
+                          keys: KeySource | None = None, render: Callable[[str], np.ndarray] | None = None,
+                          ) -> PerformerExamples:
+    """Key expressions captured live: the performer copies each key-model shown and presses a key.
+
+    The neutral face comes first, then each key-model of ``character`` in turn. For each, the camera frame
+    (with its name) is shown beside a rendered picture of the key-model; space or enter captures it (the
+    points of the steadiest ``config.window`` frames among the next ``2 * window`` valid ones are averaged),
+    q or Esc cancels.
+
+    Parameters
+    ----------
+    camera : str
+        ``camera:N`` (device N), or ``camera:VIDEO`` with a video standing in for the device.
+    character : Character
+        The character whose key-models are shown.
+    config : CalibrateConfig, optional
+    keys : KeySource, optional
+        Where key presses come from; by default an OpenCV window (which needs a display).
+    render : callable name -> (H, W, 3) uint8, optional
+        Picture of a key-model (``neutral`` included); by default rendered with
+        :func:`facepuppet.export.render.render_mesh`.
+    """
+    from facepuppet.capture.tracking import make_tracker
+    from facepuppet.io.frames import open_media
+
+    config = config or CalibrateConfig()
+    keys = keys or _window_key_source()
+    render = render or _key_model_renderer(character)
+    todo = [NEUTRAL, *character.names]
+    pictures: dict[str, np.ndarray] = {}
+    captured: dict[str, np.ndarray] = {}
+    frames: dict[str, tuple[int, int]] = {}
+    tracker = make_tracker(config.tracker.backend, **tracker_kwargs(config.tracker))
+    point_names = None
+    try:
+        with open_media(camera) as src:
+            step_ms = 1000.0 / src.fps
+            buffer: list[np.ndarray] = []
+            start = None
+            for k, rgb in enumerate(src):
+                if not todo:
+                    break
+                name = todo[0]
+                feats = tracker.track(rgb, int(round(k * step_ms)))
+                if point_names is None:
+                    point_names = getattr(tracker, "point_names", None)
+                if start is not None:                       # collecting after a key press
+                    if feats.valid:
+                        buffer.append(np.asarray(feats.points, dtype=float))
+                    if len(buffer) >= 2 * config.window or k - start > 4 * config.window + 10:
+                        if not buffer:
+                            raise FacepuppetError(f"{camera}: no face was tracked while capturing {name}")
+                        pts = np.stack(buffer)
+                        span = steadiest_window(pts, np.ones(len(pts), bool), len(pts) // 2, len(pts),
+                                                config.window) or (0, len(pts))
+                        captured[name] = pts[span[0]:span[1]].mean(axis=0)
+                        frames[name] = (start + span[0], start + span[1])
+                        todo.pop(0)
+                        buffer, start = [], None
+                    continue
+                if name not in pictures:
+                    pictures[name] = render(name)
+                status = "face found" if feats.valid else "no face"
+                shown = _prompt_picture(rgb, pictures[name], f"{name} ({len(captured) + 1}/"
+                                        f"{len(character.names) + 1})",
+                                        f"copy the face, press space ({status}); q quits")
+                key = keys(k, shown)
+                if key in CANCEL_KEYS:
+                    raise FacepuppetError("calibration cancelled; nothing was written")
+                if key in CAPTURE_KEYS:
+                    start = k
+    finally:
+        tracker.close()
+    if todo:
+        raise FacepuppetError(f"{camera}: the camera stopped before every key expression was captured "
+                              f"(missing {', '.join(todo)})")
+    names = tuple(character.names)
+    from facepuppet.capture.curves import POINT_NAMES
+
+    return _finish(captured[NEUTRAL], np.stack([captured[n] for n in names]), names,
+                   point_names or POINT_NAMES, frames, config)
+
+
+def _key_model_renderer(character) -> Callable[[str], np.ndarray]:
+    from facepuppet.export.render import Camera, render_mesh
+
+    camera = Camera.fit(character.neutral) if hasattr(Camera, "fit") else Camera()
+    index = {n: i for i, n in enumerate(character.names)}
+
+    def render(name: str) -> np.ndarray:
+        verts = character.neutral if name == NEUTRAL else character.targets[index[name]]
+        return render_mesh(verts, character.faces, camera)
+
+    return render
+
+
+# --- checks and output ------------------------------------------------------------------------------------
+
+def _face_scale(points: np.ndarray) -> float:
+    return float(np.sqrt(((points - points.mean(axis=0)) ** 2).sum(axis=1).mean()))
+
+
+def check_examples(neutral: np.ndarray, examples: np.ndarray, names: Sequence[str], *, min_motion: float = 0.15,
+                   min_separation: float = 0.2) -> list[str]:
+    """Name key expressions that barely differ from neutral or that are too close to tell apart.
+
+    Parameters
+    ----------
+    neutral : (P, D) float
+    examples : (M, P, D) float
+    names : sequence of M str
+    min_motion : float
+        Relative to the median RMS displacement of all examples (and at least 0.5 % of the face's size).
+    min_separation : float
+        Relative to the smaller RMS displacement of the two examples.
+
+    Returns
+    -------
+    list of str, one message per problem, naming the key expressions.
+    """
+    d = np.asarray(examples, dtype=float) - np.asarray(neutral, dtype=float)[None]
+    rms = np.sqrt((d ** 2).sum(axis=2).mean(axis=1))
+    floor = max(min_motion * float(np.median(rms)), 0.005 * _face_scale(np.asarray(neutral, dtype=float)))
+    out = [f"{names[i]} barely differs from neutral (moves the feature points {rms[i]:.3g} RMS, "
+           f"the median key expression {np.median(rms):.3g})" for i in range(len(names)) if rms[i] < floor]
+    weak = {i for i in range(len(names)) if rms[i] < floor}
+    for i in range(len(names)):
+        for j in range(i + 1, len(names)):
+            if i in weak or j in weak:
+                continue
+            sep = float(np.sqrt(((d[i] - d[j]) ** 2).sum(axis=1).mean()))
+            if sep < min_separation * min(rms[i], rms[j]):
+                out.append(f"{names[i]} and {names[j]} are too close to tell apart (they differ by {sep:.3g} "
+                           f"RMS, each moves about {min(rms[i], rms[j]):.3g})")
+    return out
+
+
+def save_examples(path: str | os.PathLike, result: PerformerExamples) -> None:
+    """Write the performer examples file that ``facepuppet rig --performer`` reads (atomically)."""
+    from facepuppet.io.performer import Performer, save_performer
+
+    save_performer(path, Performer(result.neutral, result.examples, result.names, result.point_names))

@@ -1,0 +1,171 @@
+"""Calibration: marks files, steady windows, examples from synthetic tracks with known answers, --auto, checks."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from facepuppet.capture.curves import CURVE_NAMES, POINT_NAMES
+from facepuppet.errors import FacepuppetError
+from facepuppet.io.track import Track
+from facepuppet.pipeline.calibrate import (
+    CalibrateConfig,
+    calibrate_auto,
+    check_examples,
+    examples_from_marks,
+    parse_when,
+    read_marks,
+    steadiest_window,
+)
+
+FPS = 30.0
+P = len(POINT_NAMES)
+
+
+def make_track(points: np.ndarray, valid: np.ndarray | None = None, extras: dict | None = None) -> Track:
+    f = len(points)
+    valid = np.ones(f, bool) if valid is None else valid
+    points = np.where(valid[:, None, None], points, np.nan)
+    return Track(fps=FPS, frame_size=np.array([64, 64]), valid=valid,
+                 curves=np.zeros((f, len(CURVE_NAMES), 4, 2)), curve_names=CURVE_NAMES, points=points,
+                 point_names=POINT_NAMES, rotation=np.tile(np.eye(3), (f, 1, 1)), translation=np.zeros((f, 3)),
+                 backend="test", extras=extras)
+
+
+@pytest.mark.parametrize("text, frame", [("45", 45), ("1.5s", 45), ("00:01.5", 45), ("0:00:02", 60),
+                                         (" 2S ", 60), ("0", 0)])
+def test_parse_when(text, frame):
+    assert parse_when(text, FPS) == frame
+
+
+@pytest.mark.parametrize("text", ["1.5", "-3", "abc", "1:2:3:4", ""])
+def test_parse_when_refuses_ambiguous(text):
+    with pytest.raises(ValueError, match="1.5s"):
+        parse_when(text, FPS)
+
+
+def write(tmp_path, text):
+    p = tmp_path / "marks.csv"
+    p.write_text(text)
+    return p
+
+
+def test_read_marks(tmp_path):
+    p = write(tmp_path, "time,name\n# a comment\n\n0.5s,neutral\n00:02.0,jawOpen\n95,mouthSmile\n")
+    marks = read_marks(p, FPS, 200, names=["jawOpen", "mouthSmile"])
+    assert [(m.frame, m.name) for m in marks] == [(15, "neutral"), (60, "jawOpen"), (95, "mouthSmile")]
+
+
+@pytest.mark.parametrize("text, match", [
+    ("0,neutral\n10,jawOpn\n", r"line 2: the character has no key-model named 'jawOpn'"),
+    ("0,neutral\n10s,jawOpen\n", r"line 2: 10s \(jawOpen\) is past the end"),
+    ("5,jawOpen\n", "no mark names the neutral"),
+    ("0,neutral\n", "at least one key expression"),
+    ("0,neutral\n5,jawOpen\n7,jawOpen\n", "marked twice"),
+    ("0,neutral\n1.5,jawOpen\n", "line 2: '1.5' is not a time"),
+    ("0,neutral,extra\n", "line 1: expected WHEN,NAME"),
+])
+def test_bad_marks_named(tmp_path, text, match):
+    with pytest.raises(ValueError, match=match):
+        read_marks(write(tmp_path, text), FPS, 100, names=["jawOpen"])
+
+
+def test_steadiest_window_finds_the_still_run(rng):
+    pts = rng.normal(size=(40, 3, 3))
+    pts[22:27] = pts[22]                               # still from frame 22 to 26
+    valid = np.ones(40, bool)
+    assert steadiest_window(pts, valid, centre=20, radius=8, window=5) == (22, 27)
+    valid[24] = False
+    span = steadiest_window(pts, valid, centre=20, radius=8, window=5)
+    assert span is not None and not (span[0] <= 24 < span[1])
+    assert steadiest_window(pts, np.zeros(40, bool), 20, 8, 5) is None
+
+
+def test_examples_from_marks_recover_held_expressions(rng):
+    neutral = rng.normal(size=(P, 3))
+    shapes = {"jawOpen": rng.normal(size=(P, 3)), "mouthSmile": rng.normal(size=(P, 3))}
+    f = 90
+    points = np.repeat(neutral[None], f, axis=0) + 0.3 * rng.normal(size=(f, P, 3))   # jittery elsewhere
+    points[5:15] = neutral
+    points[35:45] = neutral + shapes["jawOpen"]
+    points[65:75] = neutral + shapes["mouthSmile"]
+    valid = np.ones(f, bool)
+    valid[40] = False                                      # a lost frame inside a hold is avoided
+    track = make_track(points, valid)
+
+    class M:
+        def __init__(self, frame, name):
+            self.frame, self.name = frame, name
+
+    marks = [M(8, "neutral"), M(38, "jawOpen"), M(72, "mouthSmile")]
+    result = examples_from_marks(track, marks, CalibrateConfig(window=4, search=0.3))
+    np.testing.assert_allclose(result.neutral, neutral, atol=1e-12)
+    assert result.names == ("jawOpen", "mouthSmile")
+    np.testing.assert_allclose(result.examples[0], neutral + shapes["jawOpen"], atol=1e-12)
+    np.testing.assert_allclose(result.examples[1], neutral + shapes["mouthSmile"], atol=1e-12)
+    assert result.point_names == POINT_NAMES
+    assert result.warnings == ()
+
+
+def test_no_face_near_a_mark(rng):
+    points = rng.normal(size=(60, P, 3))
+    valid = np.ones(60, bool)
+    valid[20:60] = False
+
+    class M:
+        frame, name = 50, "jawOpen"
+
+    class N:
+        frame, name = 5, "neutral"
+
+    with pytest.raises(FacepuppetError, match="jawOpen .frame 50.: no face"):
+        examples_from_marks(make_track(points, valid), [N, M])
+
+
+def test_check_examples_names_problems(rng):
+    neutral = rng.normal(size=(P, 3))
+    a, b, c = (rng.normal(size=(P, 3)) for _ in range(3))
+    examples = np.stack([neutral + a, neutral + b, neutral + b + 0.01 * c, neutral + 1e-4 * c])
+    out = check_examples(neutral, examples, ["jawOpen", "smile", "grin", "blank"])
+    assert any("blank barely differs from neutral" in m for m in out)
+    assert any("smile and grin are too close" in m for m in out)
+    assert len(out) == 2
+    assert check_examples(neutral, examples[:2], ["jawOpen", "smile"]) == []
+
+
+def test_auto_picks_frames_by_blendshape_scores(rng):
+    from facepuppet.pipeline._arkit import ARKIT_NAMES as BLENDSHAPE_NAMES
+
+    col = {n: i for i, n in enumerate(BLENDSHAPE_NAMES)}
+    f = 60
+    neutral = rng.normal(size=(P, 3))
+    neutral[:, 0] = np.linspace(-5, 5, P)                       # spread left and right for the side split
+    jaw, blink, puff = (rng.normal(size=(P, 3)) for _ in range(3))
+    scores = np.full((f, len(BLENDSHAPE_NAMES)), 0.1)
+    points = np.repeat(neutral[None], f, axis=0) + 0.05 * rng.normal(size=(f, P, 3))
+    scores[2:8] = 0.0                                           # the most relaxed frames
+    points[2:8] = neutral
+    scores[20:26, col["jawOpen"]] = 0.9
+    points[20:26] = neutral + jaw
+    scores[30:36, [col["eyeBlinkLeft"], col["eyeBlinkRight"]]] = 0.95
+    points[30:36] = neutral + blink
+    scores[40:46, col["cheekPuff"]] = 0.8
+    points[40:46] = neutral + puff
+    track = make_track(points, extras={"blendshapes": scores, "blendshape_names": np.array(BLENDSHAPE_NAMES)})
+    names = ["jawOpen", "eyeBlink", "cheekPuff_L", "mouthPucker", "wiggle"]
+    result = calibrate_auto("clip", names, config=CalibrateConfig(window=4), scores_track=track, track=track)
+    assert result.names == ("jawOpen", "eyeBlink", "cheekPuff_L")
+    np.testing.assert_allclose(result.neutral, neutral, atol=1e-12)
+    np.testing.assert_allclose(result.examples[0], neutral + jaw, atol=1e-12)
+    np.testing.assert_allclose(result.examples[1], neutral + blink, atol=1e-12)
+    half = result.examples[2] - neutral                         # only the performer's left (x > 0) moves
+    assert np.abs(half[neutral[:, 0] < -1]).max() < 0.05 * np.abs(puff).max()
+    np.testing.assert_allclose(half[neutral[:, 0] > 1], puff[neutral[:, 0] > 1], rtol=0.05, atol=0.02)
+    assert any("mouthPucker" in w for w in result.warnings)
+    assert any("wiggle (not an ARKit name)" in w for w in result.warnings)
+
+
+def test_auto_needs_scores(rng):
+    track = make_track(rng.normal(size=(10, P, 3)))
+    with pytest.raises(FacepuppetError, match="blendshape scores"):
+        calibrate_auto("clip", ["jawOpen"], scores_track=track, track=track)
