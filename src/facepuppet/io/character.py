@@ -6,11 +6,15 @@ Readers and writers for the file formats live in :mod:`facepuppet.io.gltf` and :
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Character"]
+from facepuppet.errors import FacepuppetError
+
+__all__ = ["Character", "load_character", "save_character"]
 
 
 @dataclass(frozen=True)
@@ -53,3 +57,52 @@ class Character:
     def deltas(self) -> np.ndarray:
         """(M, V, 3) key-model offsets T_i - T_B (glTF morph targets)."""
         return self.targets - self.neutral[None]
+
+
+def load_character(path: str | os.PathLike, *, neutral: str | os.PathLike | None = None,
+                   mesh: str | int | None = None) -> Character:
+    """Read a character from a .glb / .gltf file or a folder of OBJ files.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        A .glb or .gltf file (morph targets are the key-models), or a folder with a neutral OBJ and one OBJ
+        per key-model.
+    neutral : str or PathLike, optional
+        OBJ folders only: the neutral OBJ's file name or stem (default ``neutral.obj``).
+    mesh : str or int, optional
+        glTF only: read this mesh (name or index) instead of every mesh with morph targets.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if path.is_dir():
+        if mesh is not None:
+            raise ValueError("mesh: only for glTF characters, not for a folder of OBJ files")
+        from facepuppet.io.obj import read_obj_character
+
+        return read_obj_character(path, neutral=neutral)
+    if not path.exists():
+        raise FacepuppetError(f"{path}: no such file or folder")
+    if neutral is not None:
+        raise ValueError("neutral: only for a folder of OBJ files")
+    if suffix in (".glb", ".gltf"):
+        from facepuppet.io.gltf import read_gltf
+
+        return read_gltf(path, mesh=mesh)
+    if suffix == ".obj":
+        raise FacepuppetError(f"{path}: one OBJ holds no key-models; give the folder with the neutral OBJ and "
+                              f"one OBJ per key-model")
+    raise FacepuppetError(f"{path}: unknown character format (expected .glb, .gltf or a folder of OBJ files)")
+
+
+def save_character(path: str | os.PathLike, character: Character, *, normals: bool = False) -> None:
+    """Write ``character`` as .glb / .gltf (by the suffix), or as a folder of OBJ files (any other path)."""
+    path = Path(path)
+    if path.suffix.lower() in (".glb", ".gltf"):
+        from facepuppet.io.gltf import write_glb
+
+        write_glb(path, character, normals=normals)
+    else:
+        from facepuppet.io.obj import write_obj_character
+
+        write_obj_character(path, character)

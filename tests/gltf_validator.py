@@ -1,0 +1,73 @@
+"""The Khronos glTF Validator (npm package ``gltf-validator``) for tests.
+
+Installed on first use with ``npm install --prefix ~/.cache/facepuppet-tests/node`` (outside the repository;
+``$FACEPUPPET_TEST_CACHE`` moves it). Without npm, or when the install fails, a test that needs it skips, and
+fails in CI (``conftest.need``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+VALIDATOR_VERSION = "2.0.0-dev.3.10"
+SCRIPT = Path(__file__).with_name("gltf_validate.js")
+
+
+def _prefix() -> Path:
+    base = os.environ.get("FACEPUPPET_TEST_CACHE", Path.home() / ".cache" / "facepuppet-tests")
+    return Path(base) / "node"
+
+
+def _install() -> Path | None:
+    prefix = _prefix()
+    module = prefix / "node_modules" / "gltf-validator"
+    if (module / "package.json").is_file():
+        return prefix
+    npm, node = shutil.which("npm"), shutil.which("node")
+    if not npm or not node:
+        return None
+    prefix.mkdir(parents=True, exist_ok=True)
+    done = subprocess.run([npm, "install", "--prefix", str(prefix), "--no-audit", "--no-fund",
+                           f"gltf-validator@{VALIDATOR_VERSION}"], capture_output=True, text=True, timeout=600)
+    return prefix if done.returncode == 0 and module.is_dir() else None
+
+
+class GltfValidator:
+    """Runs the validator on a file; :meth:`check` asserts that it reports no errors."""
+
+    def __init__(self, prefix: Path) -> None:
+        self.env = dict(os.environ, NODE_PATH=str(prefix / "node_modules"))
+
+    def report(self, path: str | os.PathLike) -> dict:
+        done = subprocess.run([shutil.which("node"), str(SCRIPT), str(path)], capture_output=True, text=True,
+                              env=self.env, timeout=120)
+        assert done.returncode == 0, f"validator failed on {path}: {done.stderr.strip()}"
+        return json.loads(done.stdout)
+
+    def check(self, path: str | os.PathLike) -> dict:
+        """Validate ``path``; fail the test listing the messages if the validator reports any error."""
+        report = self.report(path)
+        issues = report["issues"]
+        errors = [m for m in issues["messages"] if m["severity"] == 0]
+        assert issues["numErrors"] == 0, f"{path}: glTF validator errors: {json.dumps(errors, indent=1)}"
+        return report
+
+
+@pytest.fixture(scope="session")
+def gltf_validator(request) -> GltfValidator:
+    """The Khronos glTF Validator, installed on first use (skips without npm; fails in CI).
+
+    Test modules import this fixture: ``from gltf_validator import gltf_validator``.
+    """
+    # tests/conftest.py is registered under its path; take its need() (skip, or fail in CI)
+    root_conftest = request.config.pluginmanager.get_plugin(str(Path(__file__).with_name("conftest.py")))
+    prefix = _install()
+    root_conftest.need(prefix is not None,
+                       "the Khronos glTF validator (npm package gltf-validator) could not be installed")
+    return GltfValidator(prefix)
