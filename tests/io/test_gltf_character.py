@@ -8,11 +8,11 @@ import json
 import numpy as np
 import pygltflib
 import pytest
-from gltf_validator import gltf_validator  # noqa: F401  (fixture)
 
 from facepuppet.errors import FacepuppetError
 from facepuppet.io.character import Character, load_character, save_character
 from facepuppet.io.gltf import quaternion_matrix, read_gltf, write_glb
+from gltf_validator import gltf_validator  # noqa: F401  (fixture)
 
 
 def make_character(rng, v=40, m=3, name="toy") -> Character:
