@@ -1,0 +1,123 @@
+"""The performer's key expressions file (``EXAMPLES.npz``): the paper's source base and source examples.
+
+``facepuppet calibrate`` writes it; ``facepuppet rig`` pairs its examples with a character's key-models by
+name. It is a NumPy ``.npz`` archive read without pickle:
+
+=================  ===========  ==========================================================================
+key                shape        meaning
+=================  ===========  ==========================================================================
+``format``         ()           the string ``"facepuppet-performer"``
+``version``        ()           integer format version, currently 1
+``neutral``        (P, D)       feature points of the relaxed face (source base S_B), D = 2 or 3
+``examples``       (M, P, D)    feature points of each key expression (source examples S_i)
+``names``          (M,)         name of each key expression; pairs it with the key-model of the same name
+``point_names``    (P,)         optional: names of the feature points (as in the track file)
+=================  ===========  ==========================================================================
+
+Feature points are in head coordinates (head pose removed), the same space as the track file's ``points``.
+Names are unique, non-empty and compared exactly (case-sensitive). All values are finite.
+"""
+
+from __future__ import annotations
+
+import os
+import zipfile
+import zlib
+from dataclasses import dataclass
+
+import numpy as np
+
+from facepuppet.errors import FacepuppetError
+from facepuppet.io.atomic import atomic_path
+
+__all__ = ["Performer", "save_performer", "load_performer", "PERFORMER_FORMAT", "PERFORMER_VERSION"]
+
+PERFORMER_FORMAT = "facepuppet-performer"
+PERFORMER_VERSION = 1
+
+
+@dataclass(frozen=True)
+class Performer:
+    """A performer's neutral face and named key expressions, as feature points.
+
+    Attributes
+    ----------
+    neutral : (P, D) float
+        Source base S_B.
+    examples : (M, P, D) float
+        Source examples S_i.
+    names : tuple of M str
+    point_names : tuple of P str, or None
+    """
+
+    neutral: np.ndarray
+    examples: np.ndarray
+    names: tuple[str, ...]
+    point_names: tuple[str, ...] | None = None
+
+    def __post_init__(self) -> None:
+        n, e = np.shape(self.neutral), np.shape(self.examples)
+        if len(n) != 2 or n[1] not in (2, 3) or n[0] < 1:
+            raise ValueError(f"neutral must have shape (P, 2) or (P, 3), got {n}")
+        if len(e) != 3 or e[1:] != n or e[0] < 1:
+            raise ValueError(f"examples must have shape (M, {n[0]}, {n[1]}) with M >= 1, got {e}")
+        if not (np.all(np.isfinite(self.neutral)) and np.all(np.isfinite(self.examples))):
+            raise ValueError("neutral and examples must be finite (no NaN or inf)")
+        if len(self.names) != e[0]:
+            raise ValueError(f"names must hold {e[0]} names, one per example, got {len(self.names)}")
+        if any(not isinstance(x, str) or not x for x in self.names):
+            raise ValueError("names must be non-empty strings")
+        if len(set(self.names)) != len(self.names):
+            dup = sorted({x for x in self.names if self.names.count(x) > 1})
+            raise ValueError(f"example names must be unique; repeated: {', '.join(dup)}")
+        if self.point_names is not None and len(self.point_names) != n[0]:
+            raise ValueError(f"point_names must hold {n[0]} names, got {len(self.point_names)}")
+
+
+def save_performer(path: str | os.PathLike, performer: Performer) -> None:
+    """Write ``performer`` to ``path`` (.npz, no pickle), atomically."""
+    arrays = {
+        "format": np.asarray(PERFORMER_FORMAT),
+        "version": np.asarray(PERFORMER_VERSION, dtype=np.int64),
+        "neutral": np.asarray(performer.neutral, dtype=np.float64),
+        "examples": np.asarray(performer.examples, dtype=np.float64),
+        "names": np.asarray(performer.names, dtype=str),
+    }
+    if performer.point_names is not None:
+        arrays["point_names"] = np.asarray(performer.point_names, dtype=str)
+    with atomic_path(path, suffix=".npz") as tmp:
+        np.savez_compressed(tmp, **arrays)
+
+
+def load_performer(path: str | os.PathLike) -> Performer:
+    """Read a key expressions file; anything wrong with it raises FacepuppetError naming the file."""
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            arrays = {k: data[k] for k in data.files}
+    except FileNotFoundError as e:
+        raise FacepuppetError(f"{path}: no such file") from e
+    except (OSError, ValueError, zipfile.BadZipFile, zlib.error, EOFError) as e:
+        raise FacepuppetError(f"{path}: cannot read key expressions file ({e})") from e
+    if not isinstance(arrays, dict) or str(arrays.get("format", "")) != PERFORMER_FORMAT:
+        raise FacepuppetError(f"{path}: not a facepuppet key expressions file (format is not "
+                              f"{PERFORMER_FORMAT!r})")
+    try:
+        version = int(arrays["version"])
+    except (KeyError, TypeError, ValueError) as e:
+        raise FacepuppetError(f"{path}: key expressions file has no valid version") from e
+    if version > PERFORMER_VERSION:
+        raise FacepuppetError(f"{path}: key expressions file version {version} is newer than this facepuppet "
+                              f"reads ({PERFORMER_VERSION}); upgrade facepuppet")
+    missing = [k for k in ("neutral", "examples", "names") if k not in arrays]
+    if missing:
+        raise FacepuppetError(f"{path}: key expressions file lacks {', '.join(missing)}")
+    try:
+        point_names = arrays.get("point_names")
+        return Performer(
+            neutral=arrays["neutral"].astype(np.float64),
+            examples=arrays["examples"].astype(np.float64),
+            names=tuple(str(n) for n in np.atleast_1d(arrays["names"])),
+            point_names=None if point_names is None else tuple(str(n) for n in np.atleast_1d(point_names)),
+        )
+    except (ValueError, TypeError) as e:
+        raise FacepuppetError(f"{path}: invalid key expressions file ({e})") from e
