@@ -1,0 +1,45 @@
+"""`facepuppet rig`: pair a performer's key expressions with a character's key-models by name, fit, save."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "rig", help="fit the mapping from a performer's key expressions to a character",
+        description="Pair the performer's key expressions with the character's key-models of the same name "
+                    "(exact, case-sensitive), fit the expression mapper on the pairs and save the rig.")
+    p.add_argument("--performer", required=True, metavar="EXAMPLES.npz",
+                   help="key expressions file (facepuppet calibrate)")
+    p.add_argument("--character", required=True, metavar="CHARACTER",
+                   help=".glb / .gltf with morph targets, or a folder of OBJ files (neutral + one per key-model)")
+    p.add_argument("-o", "--output", required=True, metavar="RIG.npz", help="rig file to write")
+    p.add_argument("--method", default=None, help="mapping method by name (default: the most accurate)")
+    p.add_argument("--neutral", default=None, metavar="NAME",
+                   help="OBJ folder: the neutral OBJ's file name (default neutral.obj)")
+    p.add_argument("--mesh", default=None, metavar="NAME", help="glTF: read only this mesh")
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from facepuppet.io.character import load_character
+    from facepuppet.io.performer import load_performer
+    from facepuppet.io.rig import fit_rig, save_rig
+
+    performer = load_performer(args.performer)
+    character = load_character(args.character, neutral=args.neutral, mesh=args.mesh)
+    rig, pairing = fit_rig(performer, character, method=args.method)
+    if pairing.only_performer:
+        print(f"facepuppet rig: warning: key expressions with no key-model of that name: "
+              f"{', '.join(pairing.only_performer)}", file=sys.stderr)
+    if pairing.only_character:
+        print(f"facepuppet rig: warning: key-models with no key expression of that name: "
+              f"{', '.join(pairing.only_character)}", file=sys.stderr)
+    save_rig(args.output, rig)
+    v = len(character.neutral)
+    print(f"rig: {len(pairing.names)} key expressions paired with key-models of {character.name!r} "
+          f"({v} vertices, {len(character.names)} key-models); method {args.method or 'default'}; "
+          f"wrote {args.output}")
+    return 0

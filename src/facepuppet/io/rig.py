@@ -1,0 +1,225 @@
+"""The rig file (``RIG.npz``, written by ``facepuppet rig``): a fitted mapper with its character and pairing.
+
+A NumPy ``.npz`` archive read without pickle:
+
+=========================  ==========  ================================================================
+key                        shape       meaning
+=========================  ==========  ================================================================
+``format``                 ()          the string ``"facepuppet-rig"``
+``version``                ()          integer format version, currently 1
+``mapper.<key>``           any         the fitted mapper's arrays (``ExpressionMapper.to_arrays()``)
+``character.neutral``      (V, 3)      the character's neutral mesh
+``character.targets``      (K, V, 3)   all its key-models (absolute positions)
+``character.names``        (K,)        their names
+``character.faces``        (T, 3)      optional: triangles
+``character.name``         ()          the character's name
+``names``                  (M,)        the paired key-model names, in the mapper's example order
+``point_names``            (P,)        the performer's feature point names (may be empty)
+=========================  ==========  ================================================================
+
+The character is kept whole, so an exported GLB has all its morph targets; the mapper's M weights go to the
+key-models named in ``names`` (:meth:`Rig.character_weights`) and the rest stay at zero.
+"""
+
+from __future__ import annotations
+
+import inspect
+import os
+import zipfile
+import zlib
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from facepuppet.errors import FacepuppetError
+from facepuppet.io.atomic import atomic_path
+from facepuppet.io.character import Character
+from facepuppet.io.performer import Performer
+
+__all__ = ["Rig", "Pairing", "pair_by_name", "fit_rig", "save_rig", "load_rig", "RIG_FORMAT", "RIG_VERSION"]
+
+RIG_FORMAT = "facepuppet-rig"
+RIG_VERSION = 1
+_MAPPER, _CHAR = "mapper.", "character."
+
+
+@dataclass(frozen=True)
+class Rig:
+    """A fitted mapping from a performer to a character.
+
+    Attributes
+    ----------
+    mapper : ExpressionMapper
+        Fitted on the paired examples, in the order of ``names``.
+    character : Character
+        The whole character (all its key-models).
+    names : tuple of M str
+        Paired key-model names, in the mapper's example order.
+    point_names : tuple of P str
+        The performer's feature point names (empty if the performer file had none).
+    """
+
+    mapper: Any
+    character: Character
+    names: tuple[str, ...]
+    point_names: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        unknown = [n for n in self.names if n not in self.character.names]
+        if unknown:
+            raise ValueError(f"paired names not among the character's key-models: {', '.join(unknown)}")
+        if len(set(self.names)) != len(self.names):
+            raise ValueError("paired names must be unique")
+
+    @property
+    def target_indices(self) -> np.ndarray:
+        """(M,) index of each paired key-model in ``character.names``."""
+        return np.array([self.character.names.index(n) for n in self.names], dtype=np.int64)
+
+    def character_weights(self, weights: np.ndarray) -> np.ndarray:
+        """Spread the mapper's weights (..., M) over all the character's key-models (..., K), zeros elsewhere."""
+        weights = np.asarray(weights, dtype=np.float64)
+        if weights.shape[-1:] != (len(self.names),):
+            raise ValueError(f"weights must end in {len(self.names)} values, got shape {weights.shape}")
+        out = np.zeros(weights.shape[:-1] + (len(self.character.names),))
+        out[..., self.target_indices] = weights
+        return out
+
+
+@dataclass(frozen=True)
+class Pairing:
+    """Key expressions matched with key-models by name (exact, case-sensitive).
+
+    Attributes
+    ----------
+    names : tuple of str
+        Names on both sides, in the performer's order.
+    only_performer : tuple of str
+        Key expressions with no key-model of that name.
+    only_character : tuple of str
+        Key-models with no key expression of that name.
+    """
+
+    names: tuple[str, ...]
+    only_performer: tuple[str, ...]
+    only_character: tuple[str, ...]
+
+
+def pair_by_name(performer_names: Sequence[str], character_names: Sequence[str]) -> Pairing:
+    """Pair key expressions with key-models of exactly the same name."""
+    other = set(character_names)
+    mine = set(performer_names)
+    return Pairing(names=tuple(n for n in performer_names if n in other),
+                   only_performer=tuple(n for n in performer_names if n not in other),
+                   only_character=tuple(n for n in character_names if n not in mine))
+
+
+def fit_rig(performer: Performer, character: Character, *, method: str | None = None) -> tuple[Rig, Pairing]:
+    """Pair ``performer`` with ``character`` by name and fit an ExpressionMapper on the pairs.
+
+    Parameters
+    ----------
+    performer : Performer
+        Source base and examples (feature points).
+    character : Character
+        Target base and key-models.
+    method : str, optional
+        The mapper's method by name; None takes ``ExpressionMapper.fit``'s default.
+
+    Returns
+    -------
+    (Rig, Pairing)
+        The rig, and the pairing with the names left without a partner on either side.
+    """
+    from facepuppet.mapping import ExpressionMapper
+
+    pairing = pair_by_name(performer.names, character.names)
+    if not pairing.names:
+        raise FacepuppetError(
+            f"no key expression has a key-model of the same name (performer: {_some(performer.names)}; "
+            f"character {character.name!r}: {_some(character.names)}); names must match exactly")
+    examples = np.stack([performer.examples[performer.names.index(n)] for n in pairing.names])
+    targets = np.stack([character.targets[character.names.index(n)] for n in pairing.names])
+    options: dict[str, Any] = {}
+    if method is not None:
+        options["method"] = method
+    if "names" in inspect.signature(ExpressionMapper.fit).parameters:
+        options["names"] = pairing.names
+    mapper = ExpressionMapper.fit(performer.neutral, examples, character.neutral, targets, **options)
+    rig = Rig(mapper=mapper, character=character, names=pairing.names,
+              point_names=tuple(performer.point_names or ()))
+    return rig, pairing
+
+
+def _some(names: Sequence[str], limit: int = 8) -> str:
+    shown = ", ".join(names[:limit])
+    return shown + (f", ... ({len(names)} in all)" if len(names) > limit else "") if names else "none"
+
+
+def save_rig(path: str | os.PathLike, rig: Rig) -> None:
+    """Write ``rig`` to ``path`` (.npz, no pickle), atomically."""
+    c = rig.character
+    arrays: dict[str, np.ndarray] = {
+        "format": np.asarray(RIG_FORMAT),
+        "version": np.asarray(RIG_VERSION, dtype=np.int64),
+        _CHAR + "neutral": np.asarray(c.neutral),
+        _CHAR + "targets": np.asarray(c.targets),
+        _CHAR + "names": np.asarray(c.names, dtype=str),
+        _CHAR + "name": np.asarray(c.name),
+        "names": np.asarray(rig.names, dtype=str),
+        "point_names": np.asarray(rig.point_names, dtype=str),
+    }
+    if c.faces is not None:
+        arrays[_CHAR + "faces"] = np.asarray(c.faces, dtype=np.int64)
+    for key, value in rig.mapper.to_arrays().items():
+        value = np.asarray(value)
+        if value.dtype == object:
+            raise TypeError(f"mapper array {key!r} has dtype object, which cannot be saved without pickle")
+        arrays[_MAPPER + key] = value
+    with atomic_path(path, suffix=".npz") as tmp:
+        np.savez_compressed(tmp, **arrays)
+
+
+def load_rig(path: str | os.PathLike) -> Rig:
+    """Read a rig file; a missing, corrupt, truncated or newer-version file raises FacepuppetError naming it."""
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            arrays = {k: data[k] for k in data.files}
+    except FileNotFoundError as e:
+        raise FacepuppetError(f"{path}: no such file") from e
+    except (OSError, ValueError, zipfile.BadZipFile, zlib.error, EOFError) as e:
+        raise FacepuppetError(f"{path}: cannot read rig file ({e})") from e
+    if not isinstance(arrays, dict) or str(arrays.get("format", "")) != RIG_FORMAT:
+        raise FacepuppetError(f"{path}: not a facepuppet rig file")
+    try:
+        version = int(arrays["version"])
+    except (KeyError, TypeError, ValueError) as e:
+        raise FacepuppetError(f"{path}: rig file has no valid version") from e
+    if version > RIG_VERSION:
+        raise FacepuppetError(f"{path}: rig file version {version} is newer than this facepuppet reads "
+                              f"({RIG_VERSION}); upgrade facepuppet")
+    needed = [_CHAR + k for k in ("neutral", "targets", "names", "name")] + ["names", "point_names"]
+    missing = [k for k in needed if k not in arrays]
+    if missing:
+        raise FacepuppetError(f"{path}: rig file lacks {', '.join(missing)}")
+    from facepuppet.mapping import ExpressionMapper
+
+    try:
+        character = Character(
+            neutral=arrays[_CHAR + "neutral"].astype(np.float64),
+            targets=arrays[_CHAR + "targets"].astype(np.float64),
+            names=tuple(str(n) for n in np.atleast_1d(arrays[_CHAR + "names"])),
+            faces=arrays.get(_CHAR + "faces"),
+            name=str(arrays[_CHAR + "name"]),
+        )
+        mapper = ExpressionMapper.from_arrays({k[len(_MAPPER):]: v for k, v in arrays.items()
+                                               if k.startswith(_MAPPER)})
+        return Rig(mapper=mapper, character=character,
+                   names=tuple(str(n) for n in np.atleast_1d(arrays["names"])),
+                   point_names=tuple(str(n) for n in np.atleast_1d(arrays["point_names"])))
+    except FacepuppetError as e:
+        raise FacepuppetError(f"{path}: invalid rig file ({e})") from e
+    except (ValueError, TypeError, KeyError, IndexError) as e:
+        raise FacepuppetError(f"{path}: invalid rig file ({type(e).__name__}: {e})") from e
