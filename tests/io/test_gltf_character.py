@@ -362,3 +362,23 @@ def test_written_json_is_minimal_and_names_targets(tmp_path, rng):
     assert doc["meshes"][0]["extras"]["targetNames"] == ["key0", "key1"]
     assert len(prim["targets"]) == 2 and doc["meshes"][0]["weights"] == [0.0, 0.0]
     assert doc["buffers"][0]["uri"].startswith("data:application/octet-stream;base64,")
+
+
+def test_glb_named_gltf_still_reads(tmp_path, rng):
+    c = make_character(rng)
+    write_glb(tmp_path / "c.glb", c)
+    (tmp_path / "c.glb").rename(tmp_path / "c.gltf")
+    assert read_gltf(tmp_path / "c.gltf").names == c.names
+
+
+def test_validator_reports_errors(tmp_path, gltf_validator):  # noqa: F811
+    from facepuppet.io._glb import GltfBuilder
+
+    b = GltfBuilder()
+    acc = b.add_accessor(POS, target=34962, min_max=True)
+    b.json["accessors"][acc]["max"] = [9.0, 9.0, 9.0]  # wrong bounds: the validator must say so
+    b.json["meshes"] = [{"primitives": [{"attributes": {"POSITION": acc}}]}]
+    b.write(tmp_path / "bad.glb")
+    assert gltf_validator.report(tmp_path / "bad.glb")["issues"]["numErrors"] > 0
+    with pytest.raises(AssertionError, match="ACCESSOR_MAX_MISMATCH"):
+        gltf_validator.check(tmp_path / "bad.glb")

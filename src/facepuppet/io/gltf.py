@@ -58,7 +58,9 @@ def read_gltf(path: str | os.PathLike, *, mesh: str | int | None = None) -> Char
     if not path.is_file():
         raise FacepuppetError(f"{path}: no such file")
     try:
-        gltf = pygltflib.GLTF2.load(str(path))
+        with open(path, "rb") as fh:
+            binary = fh.read(4) == b"glTF"  # sniff: a GLB named .gltf (or the reverse) still reads
+        gltf = (pygltflib.GLTF2.load_binary if binary else pygltflib.GLTF2.load_json)(str(path))
     except Exception as e:  # pygltflib raises a mix of json, struct and key errors
         raise FacepuppetError(f"{path}: cannot read glTF ({type(e).__name__}: {e})") from e
     if gltf is None:
