@@ -571,12 +571,14 @@ def calibrate_interactive(camera: str, character, *, config: CalibrateConfig | N
 def _key_model_renderer(character) -> Callable[[str], np.ndarray]:
     from facepuppet.export.render import Camera, render_mesh
 
-    camera = Camera.fit(character.neutral) if hasattr(Camera, "fit") else Camera()
+    camera = Camera.fit(character.neutral, (360, 360), margin=0.12)
     index = {n: i for i, n in enumerate(character.names)}
 
     def render(name: str) -> np.ndarray:
         verts = character.neutral if name == NEUTRAL else character.targets[index[name]]
-        return render_mesh(verts, character.faces, camera)
+        if character.faces is None:
+            return np.full((360, 360, 3), 40, np.uint8)
+        return render_mesh(verts, character.faces, camera=camera)
 
     return render
 
