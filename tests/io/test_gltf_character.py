@@ -382,3 +382,10 @@ def test_validator_reports_errors(tmp_path, gltf_validator):  # noqa: F811
     assert gltf_validator.report(tmp_path / "bad.glb")["issues"]["numErrors"] > 0
     with pytest.raises(AssertionError, match="ACCESSOR_MAX_MISMATCH"):
         gltf_validator.check(tmp_path / "bad.glb")
+
+
+def test_compressed_meshes_are_refused(tmp_path):
+    a = one_mesh_asset(POS, [POS, POS])
+    a.g.extensionsUsed = a.g.extensionsRequired = ["KHR_draco_mesh_compression"]
+    with pytest.raises(FacepuppetError, match="compressed with KHR_draco_mesh_compression"):
+        read_gltf(a.save(tmp_path / "draco.glb"))

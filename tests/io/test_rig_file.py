@@ -201,3 +201,16 @@ def test_real_mapper_end_to_end(tmp_path, rng, capsys):
         w = rig.mapper.weights(performer.examples[performer.names.index(name)])
         np.testing.assert_allclose(w, np.eye(len(rig.names))[i], atol=1e-6)
     np.testing.assert_allclose(rig.mapper.weights(performer.neutral), 0, atol=1e-6)
+
+
+def test_command_reads_an_obj_folder_with_a_named_neutral(tmp_path, rng, stand_in, capsys):
+    performer, character = make_pair(rng, char_names=("smile", "blink"))
+    save_performer(tmp_path / "examples.npz", performer)
+    save_character(tmp_path / "objs", character)
+    (tmp_path / "objs" / "neutral.obj").rename(tmp_path / "objs" / "rest.obj")
+    assert main(["rig", "--performer", str(tmp_path / "examples.npz"), "--character", str(tmp_path / "objs"),
+                 "--neutral", "rest.obj", "-o", str(tmp_path / "rig.npz")]) == 0
+    out, err = capsys.readouterr()
+    assert "2 key expressions paired" in out and "frown" in err
+    rig = load_rig(tmp_path / "rig.npz")
+    np.testing.assert_array_equal(rig.character.neutral, character.neutral)

@@ -32,6 +32,8 @@ log = logging.getLogger(__name__)
 _DTYPE = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
 #: Divisor of normalised integer components (glTF 2.0 §3.11: signed values clamp at -1).
 _NORM = {5120: 127.0, 5121: 255.0, 5122: 32767.0, 5123: 65535.0, 5125: 4294967295.0}
+#: Required extensions that store vertices where plain accessors cannot read them.
+_COMPRESSION = {"KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_meshopt_compression"}
 _WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}
 
 
@@ -65,6 +67,10 @@ def read_gltf(path: str | os.PathLike, *, mesh: str | int | None = None) -> Char
         raise FacepuppetError(f"{path}: cannot read glTF ({type(e).__name__}: {e})") from e
     if gltf is None:
         raise FacepuppetError(f"{path}: not a glTF or GLB file")
+    unsupported = sorted(set(gltf.extensionsRequired or []) & _COMPRESSION)
+    if unsupported:
+        raise FacepuppetError(f"{path}: compressed with {', '.join(unsupported)}, which facepuppet does not "
+                              f"decode; export the character without mesh compression")
     reader = _Reader(gltf, path)
     if not gltf.meshes:
         raise FacepuppetError(f"{path}: no mesh in the file")
