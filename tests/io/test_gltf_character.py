@@ -389,3 +389,11 @@ def test_compressed_meshes_are_refused(tmp_path):
     a.g.extensionsUsed = a.g.extensionsRequired = ["KHR_draco_mesh_compression"]
     with pytest.raises(FacepuppetError, match="compressed with KHR_draco_mesh_compression"):
         read_gltf(a.save(tmp_path / "draco.glb"))
+
+
+def test_skinned_mesh_ignores_its_node_transform(tmp_path):
+    a = one_mesh_asset(POS, [POS, POS])
+    a.g.nodes = [pygltflib.Node(mesh=0, skin=0, translation=[5, 5, 5]), pygltflib.Node()]
+    a.g.skins = [pygltflib.Skin(joints=[1])]
+    a.g.scenes = [pygltflib.Scene(nodes=[0, 1])]
+    np.testing.assert_array_equal(read_gltf(a.save(tmp_path / "skin.glb")).neutral, POS)

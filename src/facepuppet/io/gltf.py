@@ -4,8 +4,8 @@ Reading keeps the file's vertex order exactly: the primitives of a mesh are conc
 is merged or split. Accessors are decoded here with numpy (float, normalised and plain integer components,
 strided buffer views, sparse accessors with or without a base buffer view); pygltflib parses the container.
 Each mesh is placed in scene space by its node's world matrix (the chain of parent matrices / TRS), so the
-neutral and key-models are what a viewer shows. Key-model names come from the mesh's ``extras.targetNames``
-(or a primitive's), else ``target_<i>``.
+neutral and key-models are what a viewer shows (a skinned mesh in its bind pose, as the spec places it).
+Key-model names come from the mesh's ``extras.targetNames`` (or a primitive's), else ``target_<i>``.
 
 Writing stores the neutral as POSITION and each key-model as a morph target of deltas T_i - T_B, so glTF's own
 morphing, base + Σ w_i δ_i, is the paper's Eq. 14.
@@ -330,7 +330,8 @@ def _mesh_instances(gltf) -> list[tuple[int, np.ndarray]]:
         seen.add(i)
         world = parent @ _node_matrix(nodes[i])
         if nodes[i].mesh is not None:
-            out.append((nodes[i].mesh, world))
+            # a skinned mesh ignores its node's transform (glTF 2.0 §3.7.3): its bind pose is scene space
+            out.append((nodes[i].mesh, np.eye(4) if nodes[i].skin is not None else world))
         stack.extend((c, world) for c in reversed(nodes[i].children or []))
     if not nodes:
         out = [(i, np.eye(4)) for i in range(len(gltf.meshes or []))]
