@@ -169,3 +169,31 @@ def test_auto_needs_scores(rng):
     track = make_track(rng.normal(size=(10, P, 3)))
     with pytest.raises(FacepuppetError, match="blendshape scores"):
         calibrate_auto("clip", ["jawOpen"], scores_track=track, track=track)
+
+
+def test_auto_splits_pairs_and_leaves_out_twins(rng):
+    from facepuppet.pipeline._arkit import ARKIT_NAMES
+
+    col = {n: i for i, n in enumerate(ARKIT_NAMES)}
+    f = 50
+    neutral = rng.normal(size=(P, 3))
+    neutral[:, 0] = np.linspace(-5, 5, P)
+    blink, smile = rng.normal(size=(P, 3)), rng.normal(size=(P, 3))
+    scores = np.full((f, len(ARKIT_NAMES)), 0.05)
+    points = np.repeat(neutral[None], f, axis=0) + 0.05 * rng.normal(size=(f, P, 3))
+    scores[2:8] = 0.0
+    points[2:8] = neutral
+    scores[20:26, [col["eyeBlinkLeft"], col["eyeBlinkRight"]]] = 0.9       # both eyes together
+    points[20:26] = neutral + blink
+    scores[35:41, [col["mouthSmileLeft"], col["mouthSmileRight"], col["cheekSquintLeft"],
+                   col["cheekSquintRight"]]] = [0.9, 0.9, 0.6, 0.6]       # a smile squints the cheeks
+    points[35:41] = neutral + smile
+    track = make_track(points, extras={"blendshapes": scores, "blendshape_names": np.array(ARKIT_NAMES)})
+    names = ["eyeBlink_L", "eyeBlink_R", "mouthSmile", "cheekSquint"]
+    result = calibrate_auto("clip", names, config=CalibrateConfig(window=4), scores_track=track, track=track)
+    assert result.names == ("eyeBlink_L", "eyeBlink_R", "mouthSmile")
+    d_l, d_r = result.examples[0] - neutral, result.examples[1] - neutral
+    np.testing.assert_allclose(d_l + d_r, blink, atol=1e-9)                 # the halves add up to the blink
+    left = neutral[:, 0] > 1
+    assert np.abs(d_r[left]).max() < 0.05 * np.abs(blink).max()
+    assert any("cheekSquint (shown only together with mouthSmile)" in w for w in result.warnings)

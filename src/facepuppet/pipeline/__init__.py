@@ -18,7 +18,9 @@ __all__ = [
     "CalibrateConfig",
     "calibrate",
     "AnimateConfig",
+    "Animation",
     "animate",
+    "map_track",
 ]
 
 _WHERE = {
@@ -31,7 +33,9 @@ _WHERE = {
     "CalibrateConfig": "calibrate",
     "calibrate": "calibrate",
     "AnimateConfig": "animate",
+    "Animation": "animate",
     "animate": "animate",
+    "map_track": "animate",
 }
 
 

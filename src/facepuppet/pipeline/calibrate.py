@@ -356,12 +356,14 @@ def calibrate_auto(media: str | os.PathLike, names: Sequence[str], *, config: Ca
     """Key expressions picked from a video by the landmark backend's ARKit blendshape scores.
 
     For each key-model whose name is an ARKit blendshape (any common spelling, see
-    :func:`facepuppet.pipeline._arkit.arkit_parts`) the frame with the highest score of that blendshape minus
-    the mean score of the other key-models' blendshapes is taken; the neutral face is the valid frame with the
-    lowest total score. Feature points are then averaged over the steadiest window near each pick. A
-    key-model that is one half of a symmetric ARKit shape (``cheekPuff_L``) gets the displacement of its side
-    of the face only. Key-models the performer never shows (score below ``min_score``) and names that are not
-    ARKit's are left out and reported.
+    :func:`facepuppet.pipeline._arkit.arkit_parts`) the frame with the highest score of its blendshapes minus
+    the mean score of the other key-models' is taken; the neutral face is the valid frame with the lowest
+    total score. Feature points are averaged over the steadiest window near each pick. One side of a
+    left/right pair (``eyeBlink_L`` with ``eyeBlink_R``, or ICT's ``cheekPuff_L``) gets the displacement of
+    the symmetric expression on its own side of the face only (x > 0 is the performer's left), since
+    performers rarely show one side alone. Then, clearest first, key-models are left out (and reported) that
+    the performer never shows (score below ``min_score``), that barely move the feature points, or that are
+    shown only together with one already kept (the mapping could not tell them apart).
 
     Parameters
     ----------
@@ -399,40 +401,84 @@ def calibrate_auto(media: str | os.PathLike, names: Sequence[str], *, config: Ca
         if parts is None or not all(p in col for p in parts[0]):
             skipped.append(f"{name} (not an ARKit name)")
             continue
-        wanted.append((name, [col[p] for p in parts[0]], parts[1]))
+        wanted.append((name, parts[0], parts[1]))
     if not wanted:
         raise FacepuppetError("--auto: none of the character's key-models carries an ARKit name "
                               f"({', '.join(names)}); use --marks")
     s = np.where(ok[:, None], scores, np.nan)
-    per_key = np.stack([s[:, cols].mean(axis=1) for _, cols, _ in wanted], axis=1)      # (F, K)
-    used = sorted({c for _, cols, _ in wanted for c in cols})
+    used = sorted({col[p] for _, parts, _ in wanted for p in parts})
     relax = np.where(ok, np.nan_to_num(s[:, used]).sum(axis=1), np.inf)
     neutral_frame = int(np.argmin(relax))
     neutral, neutral_span = _average(track, NEUTRAL, neutral_frame, config)
+    width = _face_scale(neutral) * 0.05
 
-    frames = {NEUTRAL: neutral_span}
-    chosen, examples = [], []
-    k = per_key.shape[1]
-    for j, (name, _, side) in enumerate(wanted):
-        others = (np.nansum(per_key, axis=1) - per_key[:, j]) / max(k - 1, 1)
-        merit = np.where(ok, per_key[:, j] - others, -np.inf)
+    # A key-model is shown by its blendshapes; one side of a left/right pair by the symmetric expression
+    # (both sides' scores), whose displacement is then split between the sides of the face.
+    shown: list[tuple[str, tuple[str, ...], str | None]] = []
+    for name, parts, side in wanted:
+        if side is None and len(parts) == 1 and parts[0].endswith(("Left", "Right")):
+            base = parts[0][:-4] if parts[0].endswith("Left") else parts[0][:-5]
+            mate = base + ("Right" if parts[0].endswith("Left") else "Left")
+            if mate in col and any(mate in p for _, p, _ in wanted):
+                shown.append((name, (base + "Left", base + "Right"), "left" if parts[0].endswith("Left")
+                              else "right"))
+                continue
+        shown.append((name, parts, side))
+    groups = sorted({parts for _, parts, _ in shown})
+    per_group = np.stack([s[:, [col[p] for p in g]].mean(axis=1) for g in groups], axis=1)       # (F, G)
+    total = np.nansum(per_group, axis=1)
+    picks: dict[tuple[str, ...], tuple[float, np.ndarray, tuple[int, int]] | None] = {}
+    for j, g in enumerate(groups):
+        others = (total - per_group[:, j]) / max(len(groups) - 1, 1)
+        merit = np.where(ok, per_group[:, j] - others, -np.inf)
         f = int(np.argmax(merit))
-        if not per_key[f, j] >= config.min_score:
-            skipped.append(f"{name} (never shown: best score {np.nanmax(per_key[:, j]):.2f})")
+        best = float(per_group[f, j])
+        if not best >= config.min_score:
+            picks[g] = None
             continue
-        pts, span = _average(track, name, f, config)
+        pts, span = _average(track, g[0], f, config)
+        picks[g] = (best, pts, span)
+
+    # Keep the clearest first; leave out what the performer never shows, what barely moves, and what is
+    # shown only together with a key-model already kept (the mapping could not tell them apart).
+    order = sorted(range(len(shown)), key=lambda i: -(picks[shown[i][1]] or (-1.0,))[0])
+    disp_all = [picks[shown[i][1]][1] - neutral for i in order if picks[shown[i][1]] is not None]
+    rms_all = [float(np.sqrt((d ** 2).sum(axis=1).mean())) for d in disp_all]
+    floor = max(config.min_motion * float(np.median(rms_all)) if rms_all else 0.0,
+                0.005 * _face_scale(neutral))
+    chosen: dict[str, np.ndarray] = {}
+    frames = {NEUTRAL: neutral_span}
+    kept_disp: list[tuple[str, np.ndarray, float]] = []
+    for i in order:
+        name, parts, side = shown[i]
+        pick = picks[parts]
+        if pick is None:
+            skipped.append(f"{name} (never shown: best score {np.nanmax(s[:, [col[p] for p in parts]]):.2f})")
+            continue
+        _, pts, span = pick
         if side is not None:
-            pts = neutral + _side_mask(neutral, side, _face_scale(neutral) * 0.05)[:, None] * (pts - neutral)
-        chosen.append(name)
-        examples.append(pts)
+            pts = neutral + _side_mask(neutral, side, width)[:, None] * (pts - neutral)
+        d = pts - neutral
+        rms = float(np.sqrt((d ** 2).sum(axis=1).mean()))
+        if rms < floor:
+            skipped.append(f"{name} (barely moves the feature points)")
+            continue
+        twin = next((k for k, e, r in kept_disp
+                     if np.sqrt(((e - d) ** 2).sum(axis=1).mean()) < config.min_separation * min(r, rms)), None)
+        if twin is not None:
+            skipped.append(f"{name} (shown only together with {twin})")
+            continue
+        kept_disp.append((name, d, rms))
+        chosen[name] = pts
         frames[name] = span
     if skipped:
         log.warning("--auto left out: %s", "; ".join(skipped))
     if not chosen:
         raise FacepuppetError(f"{media}: the performer shows none of the key-models clearly "
                               f"({'; '.join(skipped)})")
-    result = _finish(neutral, np.stack(examples), tuple(chosen), track.point_names, frames, config)
-    left_out = tuple(f"left out {s}" for s in skipped)
+    kept = tuple(n for n in names if n in chosen)
+    result = _finish(neutral, np.stack([chosen[n] for n in kept]), kept, track.point_names, frames, config)
+    left_out = tuple(f"left out {x}" for x in skipped)
     return PerformerExamples(result.neutral, result.examples, result.names, result.point_names, result.frames,
                              result.warnings + left_out)
 
