@@ -74,8 +74,12 @@ def run(args: argparse.Namespace) -> int:
             result = cal.calibrate_marks(args.media, args.marks, config=config, track=track,
                                          names=character.names if character is not None else None)
     cal.save_examples(args.output, result)
+    left_out = [w[len("left out "):] for w in result.warnings if w.startswith("left out ")]
     for w in result.warnings:
-        print(f"facepuppet calibrate: warning: {w}", file=sys.stderr)
+        if not w.startswith("left out "):
+            print(f"facepuppet calibrate: warning: {w}", file=sys.stderr)
+    if left_out:
+        print(f"facepuppet calibrate: left out {len(left_out)} key-models: {'; '.join(left_out)}", file=sys.stderr)
     print(f"calibrate: neutral + {len(result.names)} key expressions ({', '.join(result.names)}) from {source}; "
           f"wrote {args.output}")
     return 0

@@ -289,7 +289,7 @@ def _finish(neutral: np.ndarray, examples: np.ndarray, names: tuple[str, ...], p
     warnings = check_examples(neutral, examples, names, min_motion=config.min_motion,
                               min_separation=config.min_separation)
     for w in warnings:
-        log.warning("%s", w)
+        log.info("%s", w)
     return PerformerExamples(neutral, examples, names, tuple(point_names), frames, tuple(warnings))
 
 
@@ -344,6 +344,20 @@ def _blendshape_scores(track: Track) -> tuple[np.ndarray, tuple[str, ...]]:
     return scores, names
 
 
+#: ARKit blendshapes the feature curves cannot see (prefixes).
+_UNTRACKED = ("eyeLook", "tongue")
+
+#: --auto keeps the expressions that matter most first (a later one shown only together with an earlier one is
+#: left out); the rest follow by score.
+_PRIORITY = ("jawOpen", "eyeBlink", "mouthSmile", "browInnerUp", "browDown", "browOuterUp", "mouthFunnel",
+             "mouthPucker", "mouthFrown", "mouthStretch", "eyeWide", "mouthRollLower", "cheekPuff", "eyeSquint")
+
+
+def _priority(parts: tuple[str, ...]) -> int:
+    base = parts[0].removesuffix("Left").removesuffix("Right")
+    return _PRIORITY.index(base) if base in _PRIORITY else len(_PRIORITY)
+
+
 def _side_mask(points: np.ndarray, side: str, width: float) -> np.ndarray:
     """(P,) weight in [0, 1] of each neutral feature point on the performer's ``side`` (x > 0 is left)."""
     x = points[:, 0] - np.median(points[:, 0])
@@ -358,10 +372,12 @@ def calibrate_auto(media: str | os.PathLike, names: Sequence[str], *, config: Ca
     For each key-model whose name is an ARKit blendshape (any common spelling, see
     :func:`facepuppet.pipeline._arkit.arkit_parts`) the frame with the highest score of its blendshapes minus
     the mean score of the other key-models' is taken; the neutral face is the valid frame with the lowest
-    total score. Feature points are averaged over the steadiest window near each pick. One side of a
+    total score (gaze and tongue shapes are left out: the curves do not see them). Feature points are
+    averaged over the steadiest window near each pick. One side of a
     left/right pair (``eyeBlink_L`` with ``eyeBlink_R``, or ICT's ``cheekPuff_L``) gets the displacement of
     the symmetric expression on its own side of the face only (x > 0 is the performer's left), since
-    performers rarely show one side alone. Then, clearest first, key-models are left out (and reported) that
+    performers rarely show one side alone. Then, the common expressions first (jaw, blinks, smiles, brows,
+    ...) and the rest by score, key-models are left out (and reported) that
     the performer never shows (score below ``min_score``), that barely move the feature points, or that are
     shown only together with one already kept (the mapping could not tell them apart).
 
@@ -400,6 +416,9 @@ def calibrate_auto(media: str | os.PathLike, names: Sequence[str], *, config: Ca
         parts = arkit_parts(name)
         if parts is None or not all(p in col for p in parts[0]):
             skipped.append(f"{name} (not an ARKit name)")
+            continue
+        if any(p.startswith(_UNTRACKED) for p in parts[0]):
+            skipped.append(f"{name} (gaze and tongue are not tracked by the feature curves)")
             continue
         wanted.append((name, parts[0], parts[1]))
     if not wanted:
@@ -441,7 +460,7 @@ def calibrate_auto(media: str | os.PathLike, names: Sequence[str], *, config: Ca
 
     # Keep the clearest first; leave out what the performer never shows, what barely moves, and what is
     # shown only together with a key-model already kept (the mapping could not tell them apart).
-    order = sorted(range(len(shown)), key=lambda i: -(picks[shown[i][1]] or (-1.0,))[0])
+    order = sorted(range(len(shown)), key=lambda i: (_priority(shown[i][1]), -(picks[shown[i][1]] or (-1.0,))[0]))
     disp_all = [picks[shown[i][1]][1] - neutral for i in order if picks[shown[i][1]] is not None]
     rms_all = [float(np.sqrt((d ** 2).sum(axis=1).mean())) for d in disp_all]
     floor = max(config.min_motion * float(np.median(rms_all)) if rms_all else 0.0,
@@ -472,7 +491,7 @@ def calibrate_auto(media: str | os.PathLike, names: Sequence[str], *, config: Ca
         chosen[name] = pts
         frames[name] = span
     if skipped:
-        log.warning("--auto left out: %s", "; ".join(skipped))
+        log.info("--auto left out: %s", "; ".join(skipped))
     if not chosen:
         raise FacepuppetError(f"{media}: the performer shows none of the key-models clearly "
                               f"({'; '.join(skipped)})")
