@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 
 
 def register(subparsers) -> None:
@@ -27,6 +28,9 @@ def register(subparsers) -> None:
     p.add_argument("--backend", default="color", choices=("color", "mediapipe"),
                    help="tracker making the feature points; use the one you will animate with (default color)")
     p.add_argument("--profile", metavar="PROFILE", help="colour tracker's performer profile")
+    p.add_argument("--make-profile", metavar="PROFILE.npz",
+                   help="first train the colour tracker's performer profile on MEDIA, labelled by MediaPipe, "
+                        "save it here and use it")
     p.add_argument("--model", metavar="TASK", help="MediaPipe face_landmarker.task "
                    "(default: $FACEPUPPET_FACE_LANDMARKER)")
     p.add_argument("--track", metavar="TRACK.npz", help="reuse a track of MEDIA made by facepuppet track")
@@ -53,6 +57,15 @@ def run(args: argparse.Namespace) -> int:
         from facepuppet.io.track import load_track
 
         track = load_track(args.track)
+    labels = None
+    if args.make_profile:
+        if not args.media:
+            raise ValueError("--make-profile needs MEDIA (a clip of the performer)")
+        labels = cal.make_profile(args.media, args.make_profile, model=args.model,
+                                  progress=False if args.no_progress else None)
+        config = cal.CalibrateConfig(tracker=replace(config.tracker, profile=args.make_profile),
+                                     window=args.window)
+        print(f"calibrate: trained the colour tracker's profile on {args.media}; wrote {args.make_profile}")
     if args.camera is not None:
         if character is None:
             raise ValueError("--camera needs --character (its key-models are shown to copy)")
@@ -66,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
         if args.auto:
             if character is None:
                 raise ValueError("--auto needs --character (its ARKit key-model names say what to look for)")
-            scores = track if track is not None and track.extras and "blendshapes" in track.extras else None
+            scores = track if track is not None and track.extras and "blendshapes" in track.extras else labels
             result = cal.calibrate_auto(args.media, character.names, config=config, scores_track=scores,
                                         track=track if track is not None and track.backend == args.backend
                                         else None)

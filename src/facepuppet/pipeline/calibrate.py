@@ -55,6 +55,7 @@ __all__ = [
     "calibrate_interactive",
     "check_examples",
     "save_examples",
+    "make_profile",
     "NEUTRAL",
 ]
 
@@ -646,6 +647,51 @@ def _key_model_renderer(character) -> Callable[[str], np.ndarray]:
         return render_mesh(verts, character.faces, camera=camera)
 
     return render
+
+
+# --- the colour tracker's performer profile ------------------------------------------------------------
+
+def make_profile(media: str | os.PathLike, path: str | os.PathLike, *, labels: Track | None = None,
+                 model: str | None = None, every: int = 3, max_frames: int = 150,
+                 progress: bool | None = None) -> Track:
+    """Train the colour tracker's performer profile on a clip, labelled by the landmark backend (§3.1).
+
+    Parameters
+    ----------
+    media : str or PathLike
+        A short clip of the performer (the calibration video will do).
+    path : str or PathLike
+        Where to save the profile (``--profile`` of track, calibrate and animate).
+    labels : Track, optional
+        A MediaPipe track of ``media`` made before; tracked here otherwise.
+    model : str, optional
+        MediaPipe model file.
+    every, max_frames : int
+        Train on every ``every``-th labelled frame, at most ``max_frames`` of them.
+
+    Returns
+    -------
+    Track
+        The MediaPipe track used as labels (its blendshape scores serve ``--auto``).
+    """
+    from facepuppet.capture.profile import calibrate_profile, save_profile
+    from facepuppet.io.frames import open_media
+
+    if labels is None:
+        labels = get_track(media, TrackerOptions(backend="mediapipe", model=model, progress=progress))
+    keep = np.flatnonzero(labels.valid)[::max(1, every)][:max_frames]
+    if len(keep) == 0:
+        raise FacepuppetError(f"{media}: no face found to train the colour tracker's profile on")
+    wanted, frames = set(keep.tolist()), []
+    with open_media(media) as src:
+        for k, rgb in enumerate(src):
+            if k in wanted:
+                frames.append(rgb)
+            if k >= keep[-1]:
+                break
+    profile = calibrate_profile(frames, labels.curves[keep[:len(frames)]], name=Path(media).stem)
+    save_profile(path, profile)
+    return labels
 
 
 # --- checks and output ------------------------------------------------------------------------------------
