@@ -190,17 +190,63 @@ def _real_mapper():
     return ExpressionMapper
 
 
-def test_real_mapper_end_to_end(tmp_path, rng, capsys):
+@pytest.mark.parametrize("method", [None, "paper"])
+def test_real_mapper_end_to_end(tmp_path, rng, capsys, method):
     _real_mapper()
     performer, character = write_inputs(tmp_path, rng)
+    extra = [] if method is None else ["--method", method]
     assert main(["rig", "--performer", str(tmp_path / "examples.npz"), "--character",
-                 str(tmp_path / "toy.glb"), "-o", str(tmp_path / "rig.npz")]) == 0
+                 str(tmp_path / "toy.glb"), "-o", str(tmp_path / "rig.npz"), *extra]) == 0
     rig = load_rig(tmp_path / "rig.npz")
+    if method is not None:
+        assert rig.mapper.method == method
     # each paired example maps to its own key-model, the neutral to the neutral
     for i, name in enumerate(rig.names):
         w = rig.mapper.weights(performer.examples[performer.names.index(name)])
         np.testing.assert_allclose(w, np.eye(len(rig.names))[i], atol=1e-6)
     np.testing.assert_allclose(rig.mapper.weights(performer.neutral), 0, atol=1e-6)
+    # the loaded mapper is the fitted one
+    fitted, _ = fit_rig(performer, rig.character, method=method)
+    points = performer.neutral + rng.normal(size=(4,) + performer.neutral.shape) * 0.05
+    np.testing.assert_allclose(rig.mapper.weights(points), fitted.mapper.weights(points), atol=1e-12)
+    np.testing.assert_allclose(rig.mapper.synthesize(np.array([0.5, 0.25])), fitted.mapper.synthesize(
+        np.array([0.5, 0.25])), atol=1e-12)
+
+
+def test_real_mapper_diagnoses_twin_examples_in_one_line(tmp_path, rng, capsys):
+    _real_mapper()
+    performer, character = make_pair(rng, perf_names=("smile", "blink"), char_names=("smile", "blink"))
+    twins = Performer(performer.neutral, np.stack([performer.examples[0]] * 2), performer.names)
+    save_performer(tmp_path / "examples.npz", twins)
+    save_character(tmp_path / "toy.glb", character)
+    code = main(["rig", "--performer", str(tmp_path / "examples.npz"), "--character", str(tmp_path / "toy.glb"),
+                 "-o", str(tmp_path / "rig.npz")])
+    err = capsys.readouterr().err
+    assert code == 1 and len(err.strip().splitlines()) == 1
+    assert "smile" in err and "blink" in err
+    assert not (tmp_path / "rig.npz").exists()
+
+
+def test_real_mapper_on_ict_identities(tmp_path, ict):
+    """Performer = ICT identity A's 68 landmarks, character = identity B: examples map to key-models."""
+    _real_mapper()
+    rng = np.random.default_rng(7)
+    keys = [0, 10, 11, 26, 45, 46]  # browDown_L, eyeBlink_L/R, jawOpen, mouthSmile_L/R
+    names = tuple(str(ict["expr_names"][k]) for k in keys)
+    ids = ict["id_deltas"][:20]
+    a = ict["neutral"] + np.tensordot(rng.normal(size=20), ids, 1)
+    b = ict["neutral"] + np.tensordot(rng.normal(size=20), ids, 1)
+    lm = ict["landmarks68"]
+    performer = Performer(a[lm], np.stack([(a + ict["expr_deltas"][k])[lm] for k in keys]), names)
+    character = Character(b, np.stack([b + ict["expr_deltas"][k] for k in keys]), names, ict["faces"], "b")
+    save_performer(tmp_path / "a.npz", performer)
+    save_character(tmp_path / "b.glb", character)
+    assert main(["rig", "--performer", str(tmp_path / "a.npz"), "--character", str(tmp_path / "b.glb"),
+                 "-o", str(tmp_path / "rig.npz")]) == 0
+    rig = load_rig(tmp_path / "rig.npz")
+    assert rig.names == names and len(rig.character.neutral) == 11248
+    v = rig.mapper.synthesize(rig.mapper.weights(performer.examples[3]))
+    np.testing.assert_allclose(v, rig.character.targets[3], atol=1e-4)
 
 
 def test_command_reads_an_obj_folder_with_a_named_neutral(tmp_path, rng, stand_in, capsys):

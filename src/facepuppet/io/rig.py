@@ -145,8 +145,9 @@ def fit_rig(performer: Performer, character: Character, *, method: str | None = 
     options: dict[str, Any] = {}
     if method is not None:
         options["method"] = method
-    if "names" in inspect.signature(ExpressionMapper.fit).parameters:
-        options["names"] = pairing.names
+    params = inspect.signature(ExpressionMapper.fit).parameters
+    if "names" in params or any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
+        options["names"] = pairing.names  # the mapper names examples in its diagnostics
     mapper = ExpressionMapper.fit(performer.neutral, examples, character.neutral, targets, **options)
     rig = Rig(mapper=mapper, character=character, names=pairing.names,
               point_names=tuple(performer.point_names or ()))
