@@ -153,7 +153,8 @@ def test_auto_picks_frames_by_blendshape_scores(rng):
     points[40:46] = neutral + puff
     track = make_track(points, extras={"blendshapes": scores, "blendshape_names": np.array(BLENDSHAPE_NAMES)})
     names = ["jawOpen", "eyeBlink", "cheekPuff_L", "mouthPucker", "wiggle"]
-    result = calibrate_auto("clip", names, config=CalibrateConfig(window=4), scores_track=track, track=track)
+    result = calibrate_auto("clip", names, config=CalibrateConfig(window=4, auto_method="frames"),
+                            scores_track=track, track=track)
     assert result.names == ("jawOpen", "eyeBlink", "cheekPuff_L")
     np.testing.assert_allclose(result.neutral, neutral, atol=1e-12)
     np.testing.assert_allclose(result.examples[0], neutral + jaw, atol=1e-12)
@@ -190,10 +191,35 @@ def test_auto_splits_pairs_and_leaves_out_twins(rng):
     points[35:41] = neutral + smile
     track = make_track(points, extras={"blendshapes": scores, "blendshape_names": np.array(ARKIT_NAMES)})
     names = ["eyeBlink_L", "eyeBlink_R", "mouthSmile", "cheekSquint"]
-    result = calibrate_auto("clip", names, config=CalibrateConfig(window=4), scores_track=track, track=track)
+    result = calibrate_auto("clip", names, config=CalibrateConfig(window=4, auto_method="frames"),
+                            scores_track=track, track=track)
     assert result.names == ("eyeBlink_L", "eyeBlink_R", "mouthSmile")
     d_l, d_r = result.examples[0] - neutral, result.examples[1] - neutral
     np.testing.assert_allclose(d_l + d_r, blink, atol=1e-9)                 # the halves add up to the blink
     left = neutral[:, 0] > 1
     assert np.abs(d_r[left]).max() < 0.05 * np.abs(blink).max()
     assert any("cheekSquint (shown only together with mouthSmile)" in w for w in result.warnings)
+
+
+def test_auto_regression_separates_expressions_shown_together(rng):
+    """Frames are exact blends of two pure expressions by their scores; the pure ones come back."""
+    from facepuppet.pipeline._arkit import ARKIT_NAMES
+
+    col = {n: i for i, n in enumerate(ARKIT_NAMES)}
+    f = 80
+    neutral = rng.normal(size=(P, 3))
+    jaw, smile = rng.normal(size=(P, 3)), rng.normal(size=(P, 3))
+    scores = np.zeros((f, len(ARKIT_NAMES)))
+    s_jaw = np.clip(np.sin(np.arange(f) / 6.0), 0, 1)
+    s_smile = np.clip(np.cos(np.arange(f) / 9.0), 0, 1) * 0.8
+    s_smile[s_jaw > 0.5] = 0.3 + 0.5 * s_jaw[s_jaw > 0.5]              # the smile always comes with the jaw
+    s_smile[:6] = s_jaw[:6] = 0.0
+    scores[:, col["jawOpen"]] = s_jaw
+    scores[:, [col["mouthSmileLeft"], col["mouthSmileRight"]]] = s_smile[:, None]
+    points = neutral + s_jaw[:, None, None] * jaw + s_smile[:, None, None] * smile
+    track = make_track(points, extras={"blendshapes": scores, "blendshape_names": np.array(ARKIT_NAMES)})
+    result = calibrate_auto("clip", ["jawOpen", "mouthSmile"], config=CalibrateConfig(window=3),
+                            scores_track=track, track=track)
+    assert result.names == ("jawOpen", "mouthSmile")
+    np.testing.assert_allclose(result.examples[0], neutral + jaw, atol=0.02)
+    np.testing.assert_allclose(result.examples[1], neutral + smile, atol=0.02)

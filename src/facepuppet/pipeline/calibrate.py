@@ -85,6 +85,10 @@ class CalibrateConfig:
     min_separation : float
         Two key expressions closer (RMS) than ``min_separation`` times the smaller of their displacements are
         reported as too close to tell apart.
+    auto_method : {"regress", "frames"}
+        ``--auto``: ``frames`` takes each key-model's points from the frames that show it best; ``regress``
+        (default) separates expressions a performer shows together by fitting every frame's points as a blend
+        of the blendshape scores (:func:`_regress_picks`).
     """
 
     tracker: TrackerOptions = field(default_factory=TrackerOptions)
@@ -93,8 +97,11 @@ class CalibrateConfig:
     min_score: float = 0.3
     min_motion: float = 0.15
     min_separation: float = 0.2
+    auto_method: str = "regress"
 
     def __post_init__(self) -> None:
+        if self.auto_method not in ("regress", "frames"):
+            raise ValueError(f"auto_method must be 'regress' or 'frames', got {self.auto_method!r}")
         if self.window < 1:
             raise ValueError(f"window must be at least 1 frame, got {self.window}")
         if self.search < 0:
@@ -354,6 +361,41 @@ _PRIORITY = ("jawOpen", "eyeBlink", "mouthSmile", "browInnerUp", "browDown", "br
              "mouthPucker", "mouthFrown", "mouthStretch", "eyeWide", "mouthRollLower", "cheekPuff", "eyeSquint")
 
 
+def _regress_picks(picks: dict, groups: list, per_group: np.ndarray, track: Track, ok: np.ndarray,
+                   neutral: np.ndarray) -> None:
+    """Replace each picked expression by the displacement its score explains over the whole clip.
+
+    Real faces combine expressions (a smile narrows the eyes, a frown lowers the brows), so the frame that
+    shows one key-model best also shows some of others. Over all valid frames f, the displacements from
+    neutral are fitted as a blend of the shown groups' scores, ``x_f - S_B ≈ Σ_g s_g(f) B_g``, by ridge least
+    squares; ``S_B + B_g`` (the face at score 1 of group g alone) replaces the picked frame's points.
+    """
+    shown = [j for j, g in enumerate(groups) if picks[g] is not None]
+    if not shown:
+        return
+    X = per_group[ok][:, shown]                                          # (F, G)
+    Y = (track.points[ok] - neutral[None]).reshape(int(ok.sum()), -1)   # (F, P*D)
+    gram = X.T @ X
+    ridge = 1e-3 * np.trace(gram) / len(shown)
+    B = np.linalg.solve(gram + ridge * np.eye(len(shown)), X.T @ Y)     # (G, P*D)
+    for row, j in enumerate(shown):
+        best, _, span = picks[groups[j]]
+        picks[groups[j]] = (best, neutral + B[row].reshape(neutral.shape), span)
+
+
+def _blend_of(d: np.ndarray, kept: list[tuple[str, np.ndarray, float]], tolerance: float) -> str:
+    """Names of kept displacements whose blend comes within ``tolerance * |d|`` of ``d``; '' if none does."""
+    if not kept:
+        return ""
+    A = np.stack([e.ravel() for _, e, _ in kept], axis=1)           # (N, K)
+    c, *_ = np.linalg.lstsq(A, d.ravel(), rcond=None)
+    if np.linalg.norm(A @ c - d.ravel()) >= tolerance * np.linalg.norm(d):
+        return ""
+    share = np.abs(c) * np.linalg.norm(A, axis=0)
+    names = [kept[i][0] for i in np.argsort(-share) if share[i] > 0.1 * share.max()]
+    return " and ".join(names[:3]) if len(names) <= 3 else ", ".join(names[:3]) + ", ..."
+
+
 def _priority(parts: tuple[str, ...]) -> int:
     base = parts[0].removesuffix("Left").removesuffix("Right")
     return _PRIORITY.index(base) if base in _PRIORITY else len(_PRIORITY)
@@ -458,6 +500,8 @@ def calibrate_auto(media: str | os.PathLike, names: Sequence[str], *, config: Ca
             continue
         pts, span = _average(track, g[0], f, config)
         picks[g] = (best, pts, span)
+    if config.auto_method == "regress":
+        _regress_picks(picks, groups, per_group, track, ok, neutral)
 
     # Keep the clearest first; leave out what the performer never shows, what barely moves, and what is
     # shown only together with a key-model already kept (the mapping could not tell them apart).
@@ -483,9 +527,8 @@ def calibrate_auto(media: str | os.PathLike, names: Sequence[str], *, config: Ca
         if rms < floor:
             skipped.append(f"{name} (barely moves the feature points)")
             continue
-        twin = next((k for k, e, r in kept_disp
-                     if np.sqrt(((e - d) ** 2).sum(axis=1).mean()) < config.min_separation * min(r, rms)), None)
-        if twin is not None:
+        twin = _blend_of(d, kept_disp, config.min_separation)
+        if twin:
             skipped.append(f"{name} (shown only together with {twin})")
             continue
         kept_disp.append((name, d, rms))
