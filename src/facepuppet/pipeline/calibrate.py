@@ -96,7 +96,7 @@ class CalibrateConfig:
     search: float = 0.3
     min_score: float = 0.3
     min_motion: float = 0.15
-    min_separation: float = 0.2
+    min_separation: float = 0.3
     auto_method: str = "regress"
 
     def __post_init__(self) -> None:
@@ -512,7 +512,8 @@ def calibrate_auto(media: str | os.PathLike, names: Sequence[str], *, config: Ca
                 0.005 * _face_scale(neutral))
     chosen: dict[str, np.ndarray] = {}
     frames = {NEUTRAL: neutral_span}
-    kept_disp: list[tuple[str, np.ndarray, float]] = []
+    kept_groups: list[tuple[str, np.ndarray, float]] = []
+    verdict: dict[tuple[str, ...], str] = {}       # per group: "" kept, else why it is left out
     for i in order:
         name, parts, side = shown[i]
         pick = picks[parts]
@@ -520,18 +521,21 @@ def calibrate_auto(media: str | os.PathLike, names: Sequence[str], *, config: Ca
             skipped.append(f"{name} (never shown: best score {np.nanmax(s[:, [col[p] for p in parts]]):.2f})")
             continue
         _, pts, span = pick
+        full = pts - neutral            # both sides of a pair are judged together, before the split
+        if parts not in verdict:
+            rms = float(np.sqrt((full ** 2).sum(axis=1).mean()))
+            if rms < floor:
+                verdict[parts] = "barely moves the feature points"
+            else:
+                twin = _blend_of(full, kept_groups, config.min_separation)
+                verdict[parts] = f"shown only together with {twin}" if twin else ""
+                if not twin:
+                    kept_groups.append((name, full, rms))
+        if verdict[parts]:
+            skipped.append(f"{name} ({verdict[parts]})")
+            continue
         if side is not None:
-            pts = neutral + _side_mask(neutral, side, width)[:, None] * (pts - neutral)
-        d = pts - neutral
-        rms = float(np.sqrt((d ** 2).sum(axis=1).mean()))
-        if rms < floor:
-            skipped.append(f"{name} (barely moves the feature points)")
-            continue
-        twin = _blend_of(d, kept_disp, config.min_separation)
-        if twin:
-            skipped.append(f"{name} (shown only together with {twin})")
-            continue
-        kept_disp.append((name, d, rms))
+            pts = neutral + _side_mask(neutral, side, width)[:, None] * full
         chosen[name] = pts
         frames[name] = span
     if skipped:
