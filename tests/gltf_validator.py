@@ -1,8 +1,7 @@
 """The Khronos glTF Validator (npm package ``gltf-validator``) for tests.
 
-Installed on first use with ``npm install --prefix ~/.cache/facepuppet-tests/node`` (outside the repository;
-``$FACEPUPPET_TEST_CACHE`` moves it). Without npm, or when the install fails, a test that needs it skips, and
-fails in CI (``conftest.need``).
+Installed on first use into the tests' npm cache folder (:mod:`node_packages`). Without npm, or when the
+install fails, a test that needs it skips, and fails in CI (``conftest.need``).
 """
 
 from __future__ import annotations
@@ -15,27 +14,10 @@ from pathlib import Path
 
 import pytest
 
+from node_packages import need_package
+
 VALIDATOR_VERSION = "2.0.0-dev.3.10"
 SCRIPT = Path(__file__).with_name("gltf_validate.js")
-
-
-def _prefix() -> Path:
-    base = os.environ.get("FACEPUPPET_TEST_CACHE", Path.home() / ".cache" / "facepuppet-tests")
-    return Path(base) / "node"
-
-
-def _install() -> Path | None:
-    prefix = _prefix()
-    module = prefix / "node_modules" / "gltf-validator"
-    if (module / "package.json").is_file():
-        return prefix
-    npm, node = shutil.which("npm"), shutil.which("node")
-    if not npm or not node:
-        return None
-    prefix.mkdir(parents=True, exist_ok=True)
-    done = subprocess.run([npm, "install", "--prefix", str(prefix), "--no-audit", "--no-fund",
-                           f"gltf-validator@{VALIDATOR_VERSION}"], capture_output=True, text=True, timeout=600)
-    return prefix if done.returncode == 0 and module.is_dir() else None
 
 
 class GltfValidator:
@@ -65,9 +47,4 @@ def gltf_validator(request) -> GltfValidator:
 
     Test modules import this fixture: ``from gltf_validator import gltf_validator``.
     """
-    # tests/conftest.py is registered under its path; take its need() (skip, or fail in CI)
-    root_conftest = request.config.pluginmanager.get_plugin(str(Path(__file__).with_name("conftest.py")))
-    prefix = _install()
-    root_conftest.need(prefix is not None,
-                       "the Khronos glTF validator (npm package gltf-validator) could not be installed")
-    return GltfValidator(prefix)
+    return GltfValidator(need_package(request, "gltf-validator", VALIDATOR_VERSION, "the Khronos glTF validator"))
