@@ -6,10 +6,11 @@ names and order (:data:`LLF_BLENDSHAPES`), then ``HeadYaw,HeadPitch,HeadRoll,Lef
 ``BlendShapeCount`` is 61 on every row. One row per video frame. The timecode is ``HH:MM:SS:FF.mmm`` where
 ``FF.mmm`` counts 60ths of a second within the second, with three decimals (Live Link Face's 60 Hz timecode;
 its importer reads the time as ``seconds + FF.mmm / 60``), so rows at any video frame rate land at their
-exact times. Key-model names map to columns whatever their spelling: ``eyeBlink_L``, ``eyeBlinkLeft``,
-``EyeBlinkLeft``, ``eyeBlink.L``; a symmetric ``eyeBlink`` fills both sides; halves of a shape ARKit has as
-one (ICT's ``browInnerUp_L`` and ``browInnerUp_R``) are averaged. Head angles are Live Link Face's: the angle
-divided by 180° (±1 is a half turn). Eye rotations are zero (gaze is not tracked).
+exact times. Key-model names map to columns whatever their spelling (:mod:`facepuppet.arkit`):
+``eyeBlink_L``, ``eyeBlinkLeft``, ``EyeBlinkLeft``, ``eyeBlink.L``; a symmetric ``eyeBlink`` fills both sides;
+halves of a shape ARKit has as one (ICT's ``browInnerUp_L`` and ``browInnerUp_R``) are averaged. Head angles
+are Live Link Face's: the angle divided by 180° (±1 is a half turn). Eye rotations are zero (gaze is not
+tracked).
 
 **Plain layout** (``layout="plain"``): ``time,valid,<key-model names...>`` and, with a head rotation,
 ``head_yaw,head_pitch,head_roll`` in radians; time in seconds.
@@ -24,53 +25,33 @@ from __future__ import annotations
 
 import csv
 import os
-import re
 import warnings
 from collections.abc import Sequence
 
 import numpy as np
 
+from facepuppet.arkit import LLF_NAMES, arkit_parts, llf_name
 from facepuppet.io.atomic import atomic_path
 
 __all__ = ["write_weights_csv", "LLF_BLENDSHAPES", "LLF_HEAD_EYES", "llf_timecode", "head_angles",
            "arkit_columns"]
 
 #: The 52 ARKit blendshapes as Live Link Face names and orders its CSV columns.
-LLF_BLENDSHAPES: tuple[str, ...] = (
-    "EyeBlinkLeft", "EyeLookDownLeft", "EyeLookInLeft", "EyeLookOutLeft", "EyeLookUpLeft", "EyeSquintLeft",
-    "EyeWideLeft", "EyeBlinkRight", "EyeLookDownRight", "EyeLookInRight", "EyeLookOutRight", "EyeLookUpRight",
-    "EyeSquintRight", "EyeWideRight", "JawForward", "JawRight", "JawLeft", "JawOpen", "MouthClose",
-    "MouthFunnel", "MouthPucker", "MouthRight", "MouthLeft", "MouthSmileLeft", "MouthSmileRight",
-    "MouthFrownLeft", "MouthFrownRight", "MouthDimpleLeft", "MouthDimpleRight", "MouthStretchLeft",
-    "MouthStretchRight", "MouthRollLower", "MouthRollUpper", "MouthShrugLower", "MouthShrugUpper",
-    "MouthPressLeft", "MouthPressRight", "MouthLowerDownLeft", "MouthLowerDownRight", "MouthUpperUpLeft",
-    "MouthUpperUpRight", "BrowDownLeft", "BrowDownRight", "BrowInnerUp", "BrowOuterUpLeft",
-    "BrowOuterUpRight", "CheekPuff", "CheekSquintLeft", "CheekSquintRight", "NoseSneerLeft",
-    "NoseSneerRight", "TongueOut",
-)
+LLF_BLENDSHAPES: tuple[str, ...] = LLF_NAMES
 #: Head and eye rotation columns that follow the blendshapes.
 LLF_HEAD_EYES: tuple[str, ...] = ("HeadYaw", "HeadPitch", "HeadRoll", "LeftEyeYaw", "LeftEyePitch",
                                   "LeftEyeRoll", "RightEyeYaw", "RightEyePitch", "RightEyeRoll")
-_LOWER = {n.lower(): i for i, n in enumerate(LLF_BLENDSHAPES)}
-_SIDED = re.compile(r"^(.+?)[_.\- ]?(l|r|left|right)$", re.IGNORECASE)
-_SIDE = {"l": "left", "r": "right", "left": "left", "right": "right"}
+_LLF_COLUMN = {n: i for i, n in enumerate(LLF_NAMES)}
 
 
 def arkit_columns(name: str) -> tuple[int, ...]:
-    """Indices into :data:`LLF_BLENDSHAPES` that key-model ``name`` drives (empty if it is not ARKit's)."""
-    key = name.strip().lower()
-    if key in _LOWER:
-        return (_LOWER[key],)
-    match = _SIDED.match(key)
-    if match:
-        base, side = match.group(1).rstrip("_.- "), _SIDE[match.group(2).lower()]
-        if base + side in _LOWER:
-            return (_LOWER[base + side],)
-        if base in _LOWER:  # one half of a shape ARKit has as one (browInnerUp_L)
-            return (_LOWER[base],)
-    if key + "left" in _LOWER and key + "right" in _LOWER:  # a symmetric key for both sides
-        return (_LOWER[key + "left"], _LOWER[key + "right"])
-    return ()
+    """Indices into :data:`LLF_BLENDSHAPES` that key-model ``name`` drives (empty if it is not ARKit's).
+
+    Names match as :func:`facepuppet.arkit.arkit_parts` says; a half of a shape ARKit has as one drives
+    that shape's column (the halves are averaged).
+    """
+    parts = arkit_parts(name)
+    return tuple(_LLF_COLUMN[llf_name(n)] for n in parts[0]) if parts else ()
 
 
 def llf_timecode(seconds: float) -> str:
