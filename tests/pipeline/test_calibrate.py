@@ -134,7 +134,7 @@ def test_check_examples_names_problems(rng):
 
 
 def test_auto_picks_frames_by_blendshape_scores(rng):
-    from facepuppet.pipeline._arkit import ARKIT_NAMES as BLENDSHAPE_NAMES
+    from facepuppet.arkit import ARKIT_NAMES as BLENDSHAPE_NAMES
 
     col = {n: i for i, n in enumerate(BLENDSHAPE_NAMES)}
     f = 60
@@ -173,7 +173,7 @@ def test_auto_needs_scores(rng):
 
 
 def test_auto_splits_pairs_and_leaves_out_twins(rng):
-    from facepuppet.pipeline._arkit import ARKIT_NAMES
+    from facepuppet.arkit import ARKIT_NAMES
 
     col = {n: i for i, n in enumerate(ARKIT_NAMES)}
     f = 50
@@ -203,7 +203,7 @@ def test_auto_splits_pairs_and_leaves_out_twins(rng):
 
 def test_auto_regression_separates_expressions_shown_together(rng):
     """Frames are exact blends of two pure expressions by their scores; the pure ones come back."""
-    from facepuppet.pipeline._arkit import ARKIT_NAMES
+    from facepuppet.arkit import ARKIT_NAMES
 
     col = {n: i for i, n in enumerate(ARKIT_NAMES)}
     f = 80

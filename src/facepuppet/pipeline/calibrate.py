@@ -37,9 +37,9 @@ from pathlib import Path
 
 import numpy as np
 
+from facepuppet.arkit import arkit_parts
 from facepuppet.errors import FacepuppetError
 from facepuppet.io.track import Track
-from facepuppet.pipeline._arkit import arkit_parts
 from facepuppet.pipeline._tracking import TrackerOptions, get_track, tracker_kwargs
 
 __all__ = [
@@ -413,7 +413,7 @@ def calibrate_auto(media: str | os.PathLike, names: Sequence[str], *, config: Ca
     """Key expressions picked from a video by the landmark backend's ARKit blendshape scores.
 
     For each key-model whose name is an ARKit blendshape (any common spelling, see
-    :func:`facepuppet.pipeline._arkit.arkit_parts`) the frame with the highest score of its blendshapes minus
+    :func:`facepuppet.arkit.arkit_parts`) the frame with the highest score of its blendshapes minus
     the mean score of the other key-models' is taken; the neutral face is the valid frame with the lowest
     total score (gaze and tongue shapes are left out: the curves do not see them). Feature points are
     averaged over the steadiest window near each pick. One side of a
