@@ -13,11 +13,11 @@ def _objective(H, b, w):
     return 0.5 * w @ H @ w - b @ w
 
 
+@pytest.mark.parametrize("frames", [1, 12])
 @pytest.mark.parametrize("shared", [True, False])
-def test_matches_bvls(shared, rng):
+def test_matches_bvls(shared, frames, rng):
     for _ in range(30):
         m = int(rng.integers(2, 16))
-        frames = 12
         A = [rng.normal(size=(m + 4, m)) * rng.uniform(0.05, 20, size=m) for _ in range(1 if shared else frames)]
         y = rng.normal(scale=rng.uniform(0.1, 10), size=(frames, m + 4))
         H = A[0].T @ A[0] if shared else np.stack([a.T @ a for a in A])

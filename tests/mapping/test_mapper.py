@@ -113,6 +113,13 @@ def test_batch_equals_loop(method, pair, rng):
     np.testing.assert_allclose(mesh[3], tb + np.einsum("i,ivk->vk", w[3], te - tb), atol=1e-12)
 
 
+@pytest.mark.parametrize("method", ALL)
+def test_empty_batch(method, pair):
+    m = ExpressionMapper.fit(*pair, method=method)
+    assert m.weights(np.zeros((0, P, 3))).shape == (0, M)
+    assert m.synthesize(np.zeros((0, M))).shape == (0, V, 3)
+
+
 def test_continuous_in_the_input(pair, rng):
     sb, se, tb, te = pair
     m = ExpressionMapper.fit(sb, se, tb, te)

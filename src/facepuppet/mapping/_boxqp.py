@@ -50,6 +50,10 @@ def solve_box_qp(H: np.ndarray, B: np.ndarray, lo: np.ndarray, hi: np.ndarray,
     below, above = w < lo, w > hi
     if not (below.any() or above.any()):
         return w
+    if len(B) == 1:  # one live frame: index arithmetic beats masked batch algebra
+        H1 = H[0] if batched else H
+        w1 = _pdas_one(H1, B[0], lo, hi, below[0], above[0])
+        return (w1 if w1 is not None else _primal_active_set(H1, B[0], lo, hi))[None]
     M = H.shape[-1]
     eye = np.eye(M, dtype=bool)
     # Scale of the dual/primal comparison in the active-set prediction (any c > 0 works; this one is unitless).
@@ -74,6 +78,25 @@ def solve_box_qp(H: np.ndarray, B: np.ndarray, lo: np.ndarray, hi: np.ndarray,
     for f in np.flatnonzero(~done):
         w[f] = _primal_active_set(H[f] if batched else H, B[f], lo, hi)
     return w
+
+
+def _pdas_one(H: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray, below: np.ndarray,
+              above: np.ndarray) -> np.ndarray | None:
+    """The same iteration for a single frame; None if it has not settled."""
+    c = np.diag(H)
+    for _ in range(_PDAS_STEPS):
+        w = np.where(below, lo, np.where(above, hi, 0.0))
+        free = np.flatnonzero(~(below | above))
+        if free.size:
+            w[free] = np.linalg.solve(H[np.ix_(free, free)], b[free] - H[free] @ w)
+        lam = H @ w - b
+        lam[free] = 0.0
+        new_below = lam + c * (lo - w) > 0
+        new_above = lam + c * (hi - w) < 0
+        if np.array_equal(new_below, below) and np.array_equal(new_above, above):
+            return w
+        below, above = new_below, new_above
+    return None
 
 
 def _times(w: np.ndarray, H: np.ndarray) -> np.ndarray:
