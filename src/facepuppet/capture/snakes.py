@@ -1,0 +1,223 @@
+"""Feature curves as Bezier snakes (paper §3.3, Eqs. 2-4), minimised for many curves at once.
+
+Conventions: image pixels, x right, y down. A curve is four control points (4, 2); a batch is (C, 4, 2).
+
+Each curve v(s) minimises
+
+    E(v) = Σ_s  -w_edge |∇I(v(s))|²  +  w_out I(v_out(s))  -  w_in I(v_in(s))          (Eqs. 2-4)
+
+where I is the (blurred) feature intensity of Eq. 1, and v_in / v_out are the offset curves made by shifting
+the two middle control points by ±``offset`` pixels along the head's up-vector: for the upper boundary of a
+feature (curve A of the paper's Fig. 3) the inner curve lies below it (against the up-vector), for a lower
+boundary (curve B) above it. With w_in > w_out the constraint term is negative only where the inner curve
+lies in the feature and the outer one on skin, which tells curve A from curve B although both sit on edges.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from facepuppet.capture.curves import bernstein
+
+__all__ = ["SnakeConfig", "snake_fields", "snake_energy", "minimise_snakes", "box_guess", "UPPER", "LOWER"]
+
+#: The feature lies below the curve (the curve is its upper boundary, curve A of Fig. 3).
+UPPER = 1.0
+#: The feature lies above the curve (the curve is its lower boundary, curve B of Fig. 3).
+LOWER = -1.0
+
+
+@dataclass(frozen=True)
+class SnakeConfig:
+    """Options of the snake minimisation.
+
+    Attributes
+    ----------
+    w_edge : float
+        w of Eq. 3, on |∇I|² (I in [0, 1] per pixel).
+    w_in, w_out : float
+        Eq. 4's weights of the inner and outer offset curves (w_in > w_out).
+    offset : float
+        How far the middle control points are shifted to make the offset curves, pixels.
+    samples : int
+        Samples along each curve (the integral of Eq. 2 becomes a sum).
+    iterations : int
+        Downhill steps.
+    step : float
+        Length of the first step in pixels; steps shrink geometrically to ``step * decay**iterations``.
+    decay : float
+    move_ends : bool
+        Let the end control points move too (else only the middle two).
+    """
+
+    w_edge: float = 4.0
+    w_in: float = 1.0
+    w_out: float = 0.6
+    offset: float = 2.0
+    samples: int = 12
+    iterations: int = 8
+    step: float = 1.5
+    decay: float = 0.8
+    move_ends: bool = True
+
+
+def snake_fields(intensity: np.ndarray, blur: int = 5) -> np.ndarray:
+    """Blurred intensity and the derivatives the downhill steps need, stacked for one bilinear lookup.
+
+    Parameters
+    ----------
+    intensity : (H, W) float32
+        I of Eq. 1 (after contrast enhancement).
+    blur : int
+        Odd Gaussian kernel size (0 or 1: no blur). Blurring widens the basin of each edge (§3.3).
+
+    Returns
+    -------
+    (H, W, 5) float32
+        I, ∂I/∂x, ∂I/∂y, ∂|∇I|²/∂x, ∂|∇I|²/∂y.
+    """
+    img = np.asarray(intensity, dtype=np.float32)
+    if blur > 1:
+        img = cv2.GaussianBlur(img, (blur, blur), 0)
+    ix = cv2.Sobel(img, cv2.CV_32F, 1, 0, ksize=1, scale=0.5)
+    iy = cv2.Sobel(img, cv2.CV_32F, 0, 1, ksize=1, scale=0.5)
+    mag = ix * ix + iy * iy
+    ex = cv2.Sobel(mag, cv2.CV_32F, 1, 0, ksize=1, scale=0.5)
+    ey = cv2.Sobel(mag, cv2.CV_32F, 0, 1, ksize=1, scale=0.5)
+    return cv2.merge([img, ix, iy, ex, ey])
+
+
+def _sample(fields: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """Bilinear lookup of (N, 2) points in (H, W, K) fields -> (N, K); outside the image reads as 0."""
+    p = np.ascontiguousarray(pts, dtype=np.float32).reshape(1, -1, 2)
+    out = cv2.remap(fields, p, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    return out.reshape(len(pts), -1)
+
+
+class _Basis:
+    """Bernstein samples and offset profile for a given sample count (cached)."""
+
+    _cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+
+    @classmethod
+    def get(cls, n: int) -> tuple[np.ndarray, np.ndarray]:
+        if n not in cls._cache:
+            b = bernstein(np.linspace(0.0, 1.0, n)).astype(np.float32)
+            cls._cache[n] = (b, b[:, 1] + b[:, 2])
+        return cls._cache[n]
+
+
+def _offset_dirs(side: np.ndarray, up: np.ndarray) -> np.ndarray:
+    """Direction (C, 2) from a curve towards its inner offset curve: against the up-vector for UPPER."""
+    up = np.asarray(up, dtype=np.float32)
+    up = up / max(float(np.linalg.norm(up)), 1e-9)
+    return -np.asarray(side, dtype=np.float32)[:, None] * up[None, :]
+
+
+def snake_energy(ctrl: np.ndarray, side: np.ndarray, up: np.ndarray, fields: np.ndarray,
+                 config: SnakeConfig = SnakeConfig()) -> np.ndarray:
+    """E(v) of Eq. 2 for each curve (sum over samples, divided by their count).
+
+    Parameters
+    ----------
+    ctrl : (C, 4, 2) float
+    side : (C,) float
+        :data:`UPPER` or :data:`LOWER` per curve.
+    up : (2,) float
+        The head's up-vector in the image (x right, y down: upright head gives (0, -1)).
+    fields : (H, W, 5) float32
+        From :func:`snake_fields`.
+    config : SnakeConfig
+
+    Returns
+    -------
+    (C,) float
+    """
+    b, prof = _Basis.get(config.samples)
+    ctrl = np.asarray(ctrl, dtype=np.float32)
+    c = len(ctrl)
+    inward = _offset_dirs(side, up) * np.float32(config.offset)
+    pts = np.einsum("sj,cjd->csd", b, ctrl)
+    shift = prof[None, :, None] * inward[:, None, :]
+    allp = np.concatenate([pts, pts + shift, pts - shift]).reshape(-1, 2)
+    vals = _sample(fields, allp).reshape(3, c, config.samples, 5)
+    grad2 = vals[0, ..., 1] ** 2 + vals[0, ..., 2] ** 2
+    e = -config.w_edge * grad2 + config.w_out * vals[2, ..., 0] - config.w_in * vals[1, ..., 0]
+    return e.mean(axis=1)
+
+
+def minimise_snakes(ctrl: np.ndarray, side: np.ndarray, up: np.ndarray, fields: np.ndarray,
+                    config: SnakeConfig = SnakeConfig(), fixed_ends: np.ndarray | None = None) -> np.ndarray:
+    """Downhill minimisation of Eq. 2 for a batch of curves, all at once.
+
+    Each step moves every control point against the energy's gradient, normalised per curve so that the
+    largest move is the current step length (a scale-free downhill step); step lengths shrink geometrically.
+
+    Parameters
+    ----------
+    ctrl : (C, 4, 2) float
+        Initial guesses (for example :func:`box_guess`).
+    side : (C,) float
+        :data:`UPPER` or :data:`LOWER` per curve.
+    up : (2,) float
+        The head's up-vector in image coordinates.
+    fields : (H, W, 5) float32
+        From :func:`snake_fields`.
+    config : SnakeConfig
+    fixed_ends : (C,) bool, optional
+        Curves whose end control points must stay put.
+
+    Returns
+    -------
+    (C, 4, 2) float32
+    """
+    b, prof = _Basis.get(config.samples)
+    x = np.array(ctrl, dtype=np.float32)
+    c = len(x)
+    if c == 0:
+        return x
+    inward = _offset_dirs(side, up) * np.float32(config.offset)
+    shift = prof[None, :, None] * inward[:, None, :]
+    mask = np.ones((c, 4, 1), dtype=np.float32)
+    if not config.move_ends:
+        mask[:, [0, 3]] = 0.0
+    if fixed_ends is not None:
+        fe = np.asarray(fixed_ends, dtype=bool)
+        mask[fe, 0] = 0.0
+        mask[fe, 3] = 0.0
+    step = np.float32(config.step)
+    n = config.samples
+    for _ in range(config.iterations):
+        pts = np.einsum("sj,cjd->csd", b, x)
+        allp = np.concatenate([pts, pts + shift, pts - shift]).reshape(-1, 2)
+        vals = _sample(fields, allp).reshape(3, c, n, 5)
+        # dE/dv at each sample (Eqs. 3-4): the offset curves move rigidly with v (constant shifts).
+        g = (-config.w_edge) * vals[0, ..., 3:5] + config.w_out * vals[2, ..., 1:3] - config.w_in * vals[1, ..., 1:3]
+        grad = np.einsum("sj,csd->cjd", b, g) * mask
+        norm = np.sqrt((grad * grad).sum(axis=2)).max(axis=1)
+        x -= grad * (step / np.maximum(norm, 1e-12))[:, None, None]
+        step *= np.float32(config.decay)
+    return x
+
+
+def box_guess(box: np.ndarray, side: np.ndarray) -> np.ndarray:
+    """The paper's initial guess: the top (UPPER) or bottom (LOWER) edge of a blob's bounding box.
+
+    Parameters
+    ----------
+    box : (C, 4) float
+        x0, y0, x1, y1 per curve (pixels).
+    side : (C,) float
+
+    Returns
+    -------
+    (C, 4, 2) float32, running from x0 to x1.
+    """
+    box = np.asarray(box, dtype=np.float32)
+    y = np.where(np.asarray(side) > 0, box[:, 1], box[:, 3])
+    t = np.array([0.0, 1.0 / 3.0, 2.0 / 3.0, 1.0], dtype=np.float32)
+    xs = box[:, [0]] + (box[:, [2]] - box[:, [0]]) * t[None, :]
+    return np.stack([xs, np.repeat(y[:, None], 4, axis=1)], axis=-1)
