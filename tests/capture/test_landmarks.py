@@ -143,3 +143,35 @@ def test_bad_frame_is_refused(face_landmarker):
         tracker.track(np.zeros((10, 10, 3)), 0)
     with pytest.raises(ValueError, match="running_mode"):
         MediaPipeTracker(face_landmarker, running_mode="live")
+
+
+def _clip_frames(assets, n):
+    from facepuppet.io.frames import open_media
+
+    with open_media(assets / "video" / "performer_c.mp4") as src:
+        return [f for _, f in zip(range(n), src, strict=False)]
+
+
+def test_face_lost_and_found_again_in_a_video(assets, face_landmarker):
+    frames = _clip_frames(assets, 12)
+    blank = np.full_like(frames[0], 90)
+    seq = frames[:4] + [blank] * 4 + frames[8:12]
+    with MediaPipeTracker(face_landmarker) as tracker:
+        valid = [tracker.track(f, 33 * k).valid for k, f in enumerate(seq)]
+    assert valid == [True] * 4 + [False] * 4 + [True] * 4
+
+
+def test_small_face_in_a_large_frame_is_found(assets, face_landmarker):
+    """The face at a quarter size (120 px) in a 1280x720 frame: found by the tile search, then followed."""
+    import cv2
+
+    frames = _clip_frames(assets, 6)
+    with MediaPipeTracker(face_landmarker) as tracker, MediaPipeTracker(face_landmarker) as full:
+        for k, f in enumerate(frames):
+            big = np.full((720, 1280, 3), 60, np.uint8)
+            big[400:520, 900:1020] = cv2.resize(f, (120, 120), interpolation=cv2.INTER_AREA)
+            got = tracker.track(big, 33 * k)
+            assert got.valid, k
+            # the curves are the full-size face's, scaled down and moved (measured 0.35 px mean difference)
+            expected = full.track(f, 33 * k).curves * (120 / f.shape[1]) + [900, 400]
+            assert np.abs(got.curves - expected).mean() < 1.0, k
