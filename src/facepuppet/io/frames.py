@@ -79,6 +79,8 @@ def _read_image(path: Path) -> np.ndarray:
 def _open_video(path: str, label: str, camera: bool) -> MediaSource:
     import cv2
 
+    # FFmpeg's own messages ("moov atom not found") would follow our one-line error; quiet unless the user chose
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
     cap = cv2.VideoCapture(int(path) if path.isdigit() else path)
     if not cap.isOpened():
         raise FacepuppetError(f"{label}: cannot open {'camera' if camera else 'video'}")
