@@ -13,8 +13,10 @@ the last face.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -203,7 +205,8 @@ class MediaPipeTracker:
             output_face_blendshapes=True,
         )
         try:
-            return v.FaceLandmarker.create_from_options(opts)
+            with _native_stderr_quiet(not log.isEnabledFor(logging.DEBUG)):
+                return v.FaceLandmarker.create_from_options(opts)
         except (RuntimeError, ValueError) as e:
             raise FacepuppetError(f"{self.model_path}: cannot load the face landmarker model "
                                   f"({str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__})"
@@ -223,7 +226,7 @@ class MediaPipeTracker:
     def _faces(result, w: int, h: int, x0: int = 0, y0: int = 0):
         faces = []
         for i, f in enumerate(result.face_landmarks):
-            lm = np.array([(p.x * w + x0, p.y * h + y0) for p in f])
+            lm = np.array([(p.x, p.y) for p in f]) * (w, h) + (x0, y0)
             bs = (np.array([c.score for c in result.face_blendshapes[i]], dtype=np.float32)
                   if result.face_blendshapes else np.full(len(BLENDSHAPE_NAMES), np.nan, np.float32))
             faces.append((lm, bs))
@@ -357,6 +360,29 @@ class MediaPipeTracker:
             self.close()
         except Exception:  # noqa: BLE001 - interpreter shutdown may have torn mediapipe down already
             pass
+
+
+@contextlib.contextmanager
+def _native_stderr_quiet(quiet: bool):
+    """Silence file descriptor 2 for the block: MediaPipe's C++ side logs several lines to it while a graph is
+    built, which would bury the command's own output (kept when debug logging is on)."""
+    if not quiet:
+        yield
+        return
+    sys.stderr.flush()
+    try:
+        saved = os.dup(2)
+    except OSError:  # no usable stderr to silence
+        yield
+        return
+    null = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(null, 2)
+    os.close(null)
+    try:
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
 
 
 def _unique_faces(faces):
