@@ -13,10 +13,12 @@ the last face.
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import logging
 import os
 import sys
+import weakref
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -31,6 +33,10 @@ __all__ = ["MediaPipeTracker", "MediaPipeConfig", "MP_CURVES", "MP_POSE_LANDMARK
            "MODEL_ENV", "curves_from_landmarks"]
 
 log = logging.getLogger(__name__)
+
+#: Trackers not yet closed: closed at interpreter exit, while MediaPipe can still release its graphs (its own
+#: finaliser fails noisily once the interpreter is being torn down).
+_OPEN: weakref.WeakSet = weakref.WeakSet()
 
 #: Environment variable holding the path of ``face_landmarker.task``.
 MODEL_ENV = "FACEPUPPET_FACE_LANDMARKER"
@@ -190,6 +196,7 @@ class MediaPipeTracker:
         self._since_search = 10**9
         #: Per-track extras the track file carries besides the per-frame ones.
         self.static_extras = {"blendshape_names": np.asarray(BLENDSHAPE_NAMES, dtype=str)}
+        _OPEN.add(self)
 
     # -- MediaPipe plumbing -------------------------------------------------------------------------------
     def _create(self, *, video: bool):
@@ -343,11 +350,12 @@ class MediaPipeTracker:
 
     def close(self) -> None:
         """Release the landmarkers."""
+        _OPEN.discard(self)
         for attr in ("_main", "_searcher"):
             lm = getattr(self, attr, None)
             if lm is not None:
-                lm.close()
                 setattr(self, attr, None)
+                lm.close()
 
     def __enter__(self) -> MediaPipeTracker:
         return self
@@ -383,6 +391,12 @@ def _native_stderr_quiet(quiet: bool):
     finally:
         os.dup2(saved, 2)
         os.close(saved)
+
+
+@atexit.register
+def _close_open_trackers() -> None:
+    for tracker in list(_OPEN):
+        tracker.close()
 
 
 def _unique_faces(faces):
