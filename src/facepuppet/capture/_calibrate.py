@@ -1,0 +1,189 @@
+"""Learning a performer profile from labelled frames (§3.1), for :func:`~facepuppet.capture.profile.calibrate_profile`.
+
+Labels are feature curves in image pixels (CURVE_NAMES order), for example from the MediaPipe backend. From
+them: the face frame of each frame (eye centres = midpoints of the eye corners), the performer's mean layout in
+face units, the skin colour, the lips' hue, and for the colour network (inputs: :func:`subarea_means`) its
+training targets, the Fisher weights that best separate the labelled feature pixels from skin
+(:func:`~facepuppet.capture.color_net.separating_weights`), on the frames as filmed and on copies relit darker,
+brighter, warmer and cooler, so the network learns how the best weights move with the light.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import replace
+
+import cv2
+import numpy as np
+
+from facepuppet.capture.color import LipHue, channels, lip_hue_table
+from facepuppet.capture.color_net import SUBAREAS, ColourNet, separating_weights, subarea_means
+from facepuppet.capture.curves import CURVE_NAMES, bezier_points
+from facepuppet.capture.face import CROP_EXTENT, FaceFrame, SkinModel
+from facepuppet.errors import FacepuppetError
+
+log = logging.getLogger(__name__)
+
+_IDX = {n: i for i, n in enumerate(CURVE_NAMES)}
+_PX = 48.0
+
+#: Relighting of the training copies: (gain range, warmth range, gamma range); warmth t scales R by 1 + t and
+#: B by 1 - t.
+_RELIGHT = ((0.45, 1.3), (-0.3, 0.3), (0.8, 1.25))
+
+
+def label_frame(curves: np.ndarray) -> FaceFrame:
+    """The face frame of labelled curves (C, 4, 2) in image pixels (eye centres from the eye corners)."""
+    right = (curves[_IDX["eye_right_upper"], 0] + curves[_IDX["eye_right_upper"], 3]) / 2.0
+    left = (curves[_IDX["eye_left_upper"], 0] + curves[_IDX["eye_left_upper"], 3]) / 2.0
+    return FaceFrame.from_eyes(right, left)
+
+
+def to_face_units(curves: np.ndarray, frame: FaceFrame) -> np.ndarray:
+    """Curves (..., 2) from image pixels to face units of ``frame``."""
+    M = frame.to_image()
+    return (np.asarray(curves, dtype=float) - M[:, 2]) @ np.linalg.inv(M[:, :2]).T
+
+
+def relight(rgb: np.ndarray, gain: float, warmth: float, gamma: float) -> np.ndarray:
+    """A copy of ``rgb`` under other light: ``255 (gain c (rgb / 255))^gamma`` with c = (1 + t, 1, 1 - t)."""
+    x = rgb.astype(np.float32) / 255.0
+    x = x * (np.float32(gain) * np.array([1 + warmth, 1.0, 1 - warmth], dtype=np.float32))
+    x = np.clip(x, 0.0, 1.0) ** np.float32(gamma)
+    return (x * 255.0 + 0.5).astype(np.uint8)
+
+
+def feature_and_skin_masks(curves_px: np.ndarray, size: tuple[int, int], px: float = _PX):
+    """Masks (H, W) bool of labelled feature pixels and of skin pixels in a crop.
+
+    Features: brows and upper lids as thick lines, the lips and mouth opening as the area between the outer
+    lip curves. Skin: the cheek and forehead sub-areas, away from any feature.
+    """
+    w, h = size
+    feat = np.zeros((h, w), np.uint8)
+    for name, thick in (("brow_left", 0.08), ("brow_right", 0.08), ("eye_left_upper", 0.05),
+                        ("eye_right_upper", 0.05)):
+        pts = np.round(bezier_points(curves_px[_IDX[name]], 16)).astype(np.int32)
+        cv2.polylines(feat, [pts], False, 1, thickness=max(1, int(round(thick * px))))
+    lips = np.concatenate([bezier_points(curves_px[_IDX["lip_upper_outer"]], 16),
+                           bezier_points(curves_px[_IDX["lip_lower_outer"]], 16)[::-1]])
+    cv2.fillPoly(feat, [np.round(lips).astype(np.int32)], 1)
+    skin = np.zeros((h, w), bool)
+    for name in ("cheek_left", "cheek_right", "forehead"):
+        b = SUBAREAS[name]
+        x0, y0 = int(round((b[0] - CROP_EXTENT[0]) * px)), int(round((b[1] - CROP_EXTENT[1]) * px))
+        x1, y1 = int(round((b[2] - CROP_EXTENT[0]) * px)), int(round((b[3] - CROP_EXTENT[1]) * px))
+        skin[max(y0, 0):max(y1, 0), max(x0, 0):max(x1, 0)] = True
+    grown = cv2.dilate(feat, np.ones((3, 3), np.uint8)).astype(bool)
+    return feat.astype(bool), skin & ~grown
+
+
+def _crop(rgb: np.ndarray, frame: FaceFrame, px: float = _PX):
+    A = frame.crop_matrix(px)
+    size = frame.crop_size(px)
+    return cv2.warpAffine(rgb, A, size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE), A, size
+
+
+def _skin_model(crops, skins) -> SkinModel:
+    cc = []
+    for crop, skin in zip(crops, skins, strict=True):
+        ycc = cv2.cvtColor(crop, cv2.COLOR_RGB2YCrCb)
+        cc.append(ycc[skin][:, 1:].astype(float))
+    cc = np.concatenate(cc)
+    mean = cc.mean(axis=0)
+    cov = np.cov(cc.T) * 2.0 + 9.0 * np.eye(2)
+    return SkinModel((float(mean[0]), float(mean[1])), tuple(tuple(map(float, r)) for r in cov), 6.0)
+
+
+def _lip_hue(crops, curves_px, base: LipHue) -> LipHue:
+    hues = []
+    for crop, cur in zip(crops, curves_px, strict=True):
+        m = np.zeros(crop.shape[:2], np.uint8)
+        poly = np.concatenate([bezier_points(cur[_IDX["lip_upper_outer"]], 16),
+                               bezier_points(cur[_IDX["lip_upper_inner"]], 16)[::-1]])
+        cv2.fillPoly(m, [np.round(poly).astype(np.int32)], 1)
+        hsv = cv2.cvtColor(crop, cv2.COLOR_RGB2HSV)
+        sel = (m > 0) & (hsv[..., 1] >= base.min_saturation * 255)
+        hues.append(hsv[..., 0][sel].astype(float) * 2.0)
+    h = np.radians(np.concatenate(hues)) if hues else np.zeros(0)
+    if len(h) < 20:
+        return base
+    c, s = np.cos(h).mean(), np.sin(h).mean()
+    centre = float(np.degrees(np.arctan2(s, c)) % 360.0)
+    spread = float(np.degrees(np.sqrt(max(-2.0 * np.log(max(np.hypot(c, s), 1e-6)), 0.0))))
+    return LipHue(centre, float(np.clip(1.5 * spread, 10.0, 30.0)), base.min_saturation)
+
+
+def calibrate(frames, curves, *, base, name: str, augment: int, seed: int, progress: bool):
+    """See :func:`facepuppet.capture.profile.calibrate_profile`."""
+    from tqdm import tqdm
+
+    from facepuppet.capture.color_tracker import ColorTracker
+
+    curves = np.asarray(curves, dtype=float)
+    if curves.ndim != 4 or curves.shape[1:] != (len(CURVE_NAMES), 4, 2):
+        raise ValueError(f"curves must be (F, {len(CURVE_NAMES)}, 4, 2), got shape {curves.shape}")
+    frames = list(frames)
+    if len(frames) != len(curves):
+        raise ValueError(f"frames and curves must have the same length, got {len(frames)} and {len(curves)}")
+    keep = [k for k in range(len(curves)) if np.isfinite(curves[k]).all()]
+    if len(keep) < 1:
+        raise FacepuppetError("no labelled frame to calibrate the colour tracker on")
+    rng = np.random.default_rng(seed)
+    layouts, crops, curves_px, feats, skins = [], [], [], [], []
+    for k in keep:
+        rgb = np.asarray(frames[k])
+        if rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.dtype != np.uint8:
+            raise ValueError(f"frames[{k}] must be an (H, W, 3) uint8 image, got {rgb.shape} {rgb.dtype}")
+        frame = label_frame(curves[k])
+        if frame.unit < 6:
+            continue
+        layouts.append(to_face_units(curves[k], frame))
+        crop, A, size = _crop(rgb, frame)
+        cpx = curves[k] @ A[:, :2].T + A[:, 2]
+        feat, skin = feature_and_skin_masks(cpx, size)
+        if feat.sum() < 10 or skin.sum() < 10:
+            continue
+        crops.append((rgb, frame))
+        curves_px.append(cpx)
+        feats.append(feat)
+        skins.append(skin)
+    if not crops:
+        raise FacepuppetError("no labelled frame shows a face large enough to calibrate on")
+    layout = np.median(np.stack(layouts), axis=0)
+    plain = [_crop(rgb, fr)[0] for rgb, fr in crops]
+    skin_model = _skin_model(plain, skins)
+    lip = _lip_hue(plain, curves_px, base.lip_hue)
+    table = lip_hue_table(lip)
+    xs, ys = [], []
+    work = [(i, None) for i in range(len(crops))] + [(i, j) for i in range(len(crops)) for j in range(augment)]
+    for i, j in tqdm(work, desc="profile", unit="frame", disable=not progress):
+        rgb, fr = crops[i]
+        if j is not None:
+            (g0, g1), (t0, t1), (c0, c1) = _RELIGHT
+            rgb = relight(rgb, rng.uniform(g0, g1), rng.uniform(t0, t1), rng.uniform(c0, c1))
+        crop = _crop(rgb, fr)[0]
+        ch = channels(crop, table, lip.min_saturation)
+        ys.append(separating_weights(ch[:, feats[i]].T, ch[:, skins[i]].T))
+        xs.append(subarea_means(crop, _PX))
+    xs, ys = np.array(xs), np.array(ys)
+    net = ColourNet.fit(xs, ys, seed=seed)
+    weights = ys[:len(crops)].mean(axis=0)
+    profile = replace(base, layout=layout, skin=skin_model, lip_hue=lip, weights=weights.astype(np.float64),
+                      net=net.to_arrays(), name=name)
+    # The eye anchors: where the tracker's eye search lands, in face units, on the labelled frames.
+    anchors = np.asarray(profile.anchors, dtype=float).copy()
+    for _ in range(2):
+        tracker = ColorTracker(replace(profile, anchors=anchors))
+        got = []
+        for rgb, fr in crops:
+            crop = _crop(rgb, fr, tracker.config.px)[0]
+            eyes = tracker._eye_centres(tracker.intensity(crop))
+            if eyes is not None:
+                got.append(eyes / tracker.config.px + CROP_EXTENT[:2])
+        if not got:
+            break
+        anchors[:2] = np.median(np.stack(got), axis=0)
+    log.info("profile %s: %d frames (%d relit), lip hue %.0f deg, weights %s", name, len(crops),
+             len(crops) * augment, lip.centre, np.round(weights, 2))
+    return replace(profile, anchors=anchors)

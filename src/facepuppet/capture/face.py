@@ -1,0 +1,265 @@
+"""Face localisation and the face frame (paper §3.2): skin model, face box, anthropometric rectangles.
+
+Conventions: image pixels, x right, y down, RGB order. The *face frame* is a similarity of the image: its
+origin is midway between the two eye centres (each the midpoint of the eye's corners), its unit is the
+distance between the eye centres, its x axis runs from the performer's right eye to the left eye (image
+right for an unmirrored camera) and its y axis points down the face. Work happens in a small upright crop of
+the face frame (:class:`FaceFrame`), so the feature rectangles follow the head's translation, scale and roll.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+__all__ = [
+    "SkinModel",
+    "FaceFrame",
+    "FEATURE_BOXES",
+    "CROP_EXTENT",
+    "skin_probability",
+    "find_face",
+    "similarity_from_points",
+]
+
+#: Extent of the face crop in face units: x0, y0, x1, y1 (brows above, chin below).
+CROP_EXTENT = (-1.3, -0.85, 1.3, 1.95)
+
+#: Feature rectangles in face units (x0, y0, x1, y1), placed from average adult proportions; the performer's
+#: own layout (profile) shifts them. Left and right are the performer's own.
+FEATURE_BOXES: dict[str, tuple[float, float, float, float]] = {
+    "brow_left": (0.10, -0.62, 1.05, -0.20),
+    "brow_right": (-1.05, -0.62, -0.10, -0.20),
+    "eye_left": (0.16, -0.26, 0.88, 0.24),
+    "eye_right": (-0.88, -0.26, -0.16, 0.24),
+    "nose": (-0.42, 0.50, 0.42, 0.98),
+    "mouth": (-0.72, 0.84, 0.72, 1.85),
+    "cheek_left": (0.40, 0.45, 0.75, 0.75),
+    "cheek_right": (-0.75, 0.45, -0.40, 0.75),
+}
+
+
+@dataclass(frozen=True)
+class SkinModel:
+    """A Gaussian skin-colour model in the (Cr, Cb) plane of YCrCb (8-bit codes).
+
+    Attributes
+    ----------
+    mean : (2,) float
+        Mean (Cr, Cb) of skin.
+    cov : (2, 2) float
+        Covariance of (Cr, Cb) of skin.
+    threshold : float
+        Squared Mahalanobis distance below which a pixel counts as skin.
+    """
+
+    mean: tuple[float, float] = (155.0, 110.0)
+    cov: tuple[tuple[float, float], tuple[float, float]] = ((70.0, -25.0), (-25.0, 60.0))
+    threshold: float = 6.0
+
+    def table(self) -> np.ndarray:
+        """Skin membership over all (Cr, Cb) codes, (256, 256) uint8 (255 = skin); cached per model."""
+        key = (self.mean, self.cov, self.threshold)
+        tab = _SKIN_TABLES.get(key)
+        if tab is None:
+            cr, cb = np.mgrid[0:256, 0:256].astype(np.float64)
+            d = np.stack([cr - self.mean[0], cb - self.mean[1]], -1)
+            inv = np.linalg.inv(np.asarray(self.cov, dtype=float))
+            m = np.einsum("...i,ij,...j->...", d, inv, d)
+            tab = np.where(m < self.threshold, 255, 0).astype(np.uint8)
+            _SKIN_TABLES[key] = tab
+        return tab
+
+
+_SKIN_TABLES: dict = {}
+
+
+def skin_probability(rgb: np.ndarray, model: SkinModel = SkinModel()) -> np.ndarray:
+    """Skin mask of an RGB image, (H, W) uint8 (255 = skin-coloured)."""
+    ycc = cv2.cvtColor(rgb, cv2.COLOR_RGB2YCrCb)
+    mask = model.table()[ycc[..., 1], ycc[..., 2]]
+    # Very dark or very bright pixels have unreliable chroma.
+    mask[(ycc[..., 0] < 35) | (ycc[..., 0] > 250)] = 0
+    return mask
+
+
+def find_face(rgb: np.ndarray, model: SkinModel = SkinModel(), *, work_width: int = 96,
+              roi: tuple[int, int, int, int] | None = None, min_fraction: float = 0.01) -> FaceFrame | None:
+    """Find the face: the largest skin region, its eye holes, and from them a first face frame.
+
+    The frame is shrunk to about ``work_width`` pixels wide; the skin mask is closed, its largest connected
+    region taken, and its holes (non-skin pixels enclosed by skin: eyes, brows, mouth) examined. The pair
+    of holes most like two eyes (side by side, in the upper part of the region, a plausible distance apart)
+    gives the face frame; failing that, the region's box and average proportions do.
+
+    Parameters
+    ----------
+    rgb : (H, W, 3) uint8
+    model : SkinModel
+    work_width : int
+        Width of the shrunk image the search runs on.
+    roi : (x0, y0, x1, y1), optional
+        Search only this part of the image (pixels).
+    min_fraction : float
+        Smallest skin region accepted, as a fraction of the searched area.
+
+    Returns
+    -------
+    FaceFrame or None
+        None when no skin region is large enough.
+    """
+    h, w = rgb.shape[:2]
+    x0, y0, x1, y1 = (0, 0, w, h) if roi is None else (max(0, int(roi[0])), max(0, int(roi[1])),
+                                                       min(w, int(roi[2])), min(h, int(roi[3])))
+    if x1 - x0 < 8 or y1 - y0 < 8:
+        return None
+    sub = rgb[y0:y1, x0:x1]
+    f = min(1.0, work_width / float(x1 - x0))
+    small = cv2.resize(sub, (max(8, round((x1 - x0) * f)), max(8, round((y1 - y0) * f))),
+                       interpolation=cv2.INTER_AREA)
+    mask = skin_probability(small, model)
+    mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((2, 2), np.uint8))
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    if n < 2:
+        return None
+    k = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
+    if stats[k, cv2.CC_STAT_AREA] < min_fraction * mask.size:
+        return None
+    bx, by, bw, bh = (int(v) for v in stats[k, :4])
+    region = (labels == k).astype(np.uint8)
+    # Limit the region to a face-shaped box: the neck and shoulders may join it below.
+    bh = min(bh, int(round(1.5 * bw)))
+    eyes = _eye_holes(region, bx, by, bw, bh)
+    if eyes is None:
+        iod = bw / 2.3
+        centre = np.array([bx + bw / 2.0, by + 0.33 * bh])
+        right, left = centre - [iod / 2, 0], centre + [iod / 2, 0]
+    else:
+        right, left = eyes
+    scale = 1.0 / f
+    off = np.array([x0, y0], dtype=float)
+    return FaceFrame.from_eyes(np.asarray(right) * scale + off, np.asarray(left) * scale + off)
+
+
+def _eye_holes(region: np.ndarray, bx: int, by: int, bw: int, bh: int):
+    """Centres of the two eye holes of a skin region (small-image pixels), or None."""
+    box = np.zeros((bh + 2, bw + 2), np.uint8)
+    box[1:-1, 1:-1] = region[by:by + bh, bx:bx + bw]
+    filled = box.copy()
+    ff = np.zeros((bh + 4, bw + 4), np.uint8)
+    cv2.floodFill(filled, ff, (0, 0), 1)
+    holes = (filled == 0).astype(np.uint8)
+    n, _, stats, cents = cv2.connectedComponentsWithStats(holes, connectivity=8)
+    if n < 3:
+        return None
+    cand = [(cents[i] + [bx - 1, by - 1], stats[i, cv2.CC_STAT_AREA]) for i in range(1, n)
+            if stats[i, cv2.CC_STAT_AREA] >= 2 and cents[i][1] < 0.6 * bh]
+    best, best_score = None, -np.inf
+    for i in range(len(cand)):
+        for j in range(i + 1, len(cand)):
+            (a, sa), (b, sb) = cand[i], cand[j]
+            d = b - a
+            dist = abs(d[0])
+            if not (0.25 * bw <= dist <= 0.65 * bw) or abs(d[1]) > 0.35 * dist:
+                continue
+            mid = (a + b) / 2.0
+            # Side by side, centred, similar size; lower pairs are eyes (brows lie above them).
+            score = (-abs(mid[0] - (bx + bw / 2.0)) / bw - abs(d[1]) / dist - abs(np.log(sa / sb)) * 0.3
+                     + 0.5 * (mid[1] - by) / bh)
+            if score > best_score:
+                best, best_score = (a, b) if a[0] < b[0] else (b, a), score
+    return best
+
+
+def similarity_from_points(src: np.ndarray, dst: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+    """Least-squares similarity (rotation, uniform scale, translation) taking ``src`` onto ``dst``.
+
+    Parameters
+    ----------
+    src, dst : (N, 2) float, N >= 2
+    weights : (N,) float, optional
+
+    Returns
+    -------
+    (2, 3) float
+        ``dst ≈ A[:, :2] @ src + A[:, 2]``.
+    """
+    src = np.asarray(src, dtype=float)
+    dst = np.asarray(dst, dtype=float)
+    w = np.ones(len(src)) if weights is None else np.asarray(weights, dtype=float)
+    w = w / w.sum()
+    ms, md = w @ src, w @ dst
+    a, b = src - ms, dst - md
+    # z = (p + iq) with dst ≈ z * src in complex form.
+    num_re = w @ (a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1])
+    num_im = w @ (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
+    den = max(w @ (a * a).sum(1), 1e-12)
+    p, q = num_re / den, num_im / den
+    R = np.array([[p, -q], [q, p]])
+    return np.column_stack([R, md - R @ ms])
+
+
+@dataclass(frozen=True)
+class FaceFrame:
+    """The face frame in one image: where the eye centres are, hence the face's position, size and roll.
+
+    Attributes
+    ----------
+    origin : (2,) float
+        Midpoint of the eye centres, image pixels.
+    axis : (2,) float
+        Vector from the right eye centre to the left eye centre (image pixels): its length is the face
+        unit, its direction the face's roll.
+    """
+
+    origin: np.ndarray
+    axis: np.ndarray
+
+    @classmethod
+    def from_eyes(cls, right: np.ndarray, left: np.ndarray) -> FaceFrame:
+        right, left = np.asarray(right, dtype=float), np.asarray(left, dtype=float)
+        return cls((right + left) / 2.0, left - right)
+
+    @property
+    def unit(self) -> float:
+        """Face unit (distance between the eye centres) in pixels."""
+        return float(np.hypot(*self.axis))
+
+    @property
+    def roll(self) -> float:
+        """Roll angle in radians (positive: the left eye lower in the image)."""
+        return float(np.arctan2(self.axis[1], self.axis[0]))
+
+    def to_image(self) -> np.ndarray:
+        """(2, 3) similarity from face units to image pixels."""
+        ax, ay = self.axis
+        return np.array([[ax, -ay, self.origin[0]], [ay, ax, self.origin[1]]])
+
+    def crop_matrix(self, px: float, extent: tuple[float, float, float, float] = CROP_EXTENT) -> np.ndarray:
+        """(2, 3) affine from image pixels to crop pixels (``px`` crop pixels per face unit)."""
+        ax, ay = self.axis / (self.unit ** 2)
+        # face units: u = R^T (x - o) / unit, crop: c = (u - (x0, y0)) * px
+        A = np.array([[ax, ay], [-ay, ax]]) * px
+        t = -A @ self.origin - np.array([extent[0], extent[1]]) * px
+        return np.column_stack([A, t])
+
+    def crop_size(self, px: float, extent: tuple[float, float, float, float] = CROP_EXTENT) -> tuple[int, int]:
+        return int(round((extent[2] - extent[0]) * px)), int(round((extent[3] - extent[1]) * px))
+
+    def compose(self, correction: np.ndarray) -> FaceFrame:
+        """The frame moved by a similarity ``correction`` (2, 3) acting in face units."""
+        S = np.asarray(correction, dtype=float)
+        M = self.to_image()
+        o = M[:, :2] @ S[:, 2] + M[:, 2]
+        ax = M[:, :2] @ S[:, :2] @ np.array([1.0, 0.0])
+        return FaceFrame(o, ax)
+
+    def blend(self, other: FaceFrame, alpha: float) -> FaceFrame:
+        """(1 − alpha) self + alpha other, in origin, log-scale and roll."""
+        o = (1 - alpha) * self.origin + alpha * other.origin
+        s = np.exp((1 - alpha) * np.log(self.unit) + alpha * np.log(other.unit))
+        dr = (other.roll - self.roll + np.pi) % (2 * np.pi) - np.pi
+        r = self.roll + alpha * dr
+        return FaceFrame(o, s * np.array([np.cos(r), np.sin(r)]))

@@ -1,0 +1,202 @@
+"""The performer profile: what the colour tracker learns about one performer, saved as a versioned .npz.
+
+A profile holds the colour-weight network of §3.1 (its layer arrays; rebuilt without pickle), the lips' hue
+function G, the performer's skin colour, and the performer's mean feature layout in the face frame (curves in
+face units, see :mod:`facepuppet.capture.face`) with the blob anchors the tracker aligns the face frame on.
+:func:`default_profile` is a generic adult face with generic weights; it needs no calibration and no
+MediaPipe. :func:`calibrate_profile` learns a performer's profile from labelled frames.
+"""
+
+from __future__ import annotations
+
+import os
+import zipfile
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from facepuppet.capture.color import DEFAULT_WEIGHTS, LipHue
+from facepuppet.capture.curves import CURVE_NAMES
+from facepuppet.capture.face import SkinModel
+from facepuppet.errors import FacepuppetError
+from facepuppet.io.atomic import atomic_path
+
+__all__ = [
+    "PROFILE_VERSION",
+    "GENERIC_LAYOUT",
+    "GENERIC_ANCHORS",
+    "ANCHOR_NAMES",
+    "Profile",
+    "default_profile",
+    "save_profile",
+    "load_profile",
+    "calibrate_profile",
+]
+
+PROFILE_VERSION = 1
+
+# Average adult layout in face units (origin between the eye centres, unit = eye-centre distance, x towards
+# the performer's left eye, y down the face); left half, mirrored for the right. Rounded anthropometric
+# proportions: eye fissure 0.45 wide, brow 0.3 above the eye line, nose base 0.8 and mouth corners 1.2 below.
+_LEFT_LAYOUT: dict[str, tuple[tuple[float, float], ...]] = {
+    "brow_left": ((0.23, -0.29), (0.44, -0.33), (0.75, -0.47), (0.91, -0.25)),
+    "eye_left_upper": ((0.276, 0.019), (0.377, -0.114), (0.607, -0.144), (0.724, -0.019)),
+    "eye_left_lower": ((0.276, 0.019), (0.418, 0.035), (0.608, 0.096), (0.724, -0.019)),
+    "nostril_left": ((0.0, 0.80), (0.08, 0.83), (0.17, 0.81), (0.22, 0.74)),
+}
+_MIDDLE_LAYOUT: dict[str, tuple[tuple[float, float], ...]] = {
+    "lip_upper_outer": ((-0.39, 1.21), (-0.27, 0.96), (0.27, 0.96), (0.39, 1.21)),
+    "lip_lower_outer": ((-0.39, 1.21), (-0.277, 1.556), (0.277, 1.556), (0.39, 1.21)),
+    "lip_upper_inner": ((-0.35, 1.21), (-0.165, 1.10), (0.165, 1.10), (0.35, 1.21)),
+    "lip_lower_inner": ((-0.35, 1.21), (-0.162, 1.334), (0.162, 1.334), (0.35, 1.21)),
+}
+
+
+def _generic_layout() -> np.ndarray:
+    out = {}
+    for name, pts in _LEFT_LAYOUT.items():
+        p = np.asarray(pts, dtype=float)
+        out[name] = p
+        mirror = p * [-1.0, 1.0]
+        # Right-side curves run in the same anatomical direction (inner to outer) except the nostril, which
+        # runs from the ala to the nose base (iBUG 31-33).
+        out[name.replace("left", "right")] = mirror[::-1] if name.startswith("nostril") else mirror
+    out.update({k: np.asarray(v, dtype=float) for k, v in _MIDDLE_LAYOUT.items()})
+    return np.stack([out[n] for n in CURVE_NAMES])
+
+
+#: (C, 4, 2) generic feature curves in face units, CURVE_NAMES order.
+GENERIC_LAYOUT = _generic_layout()
+
+#: Blob anchors the face frame is aligned on: where, in face units, the tracker expects the centre of each
+#: eye blob's box and the centroid of the nostrils.
+ANCHOR_NAMES = ("eye_right", "eye_left", "nose")
+GENERIC_ANCHORS = np.array([[-0.5, -0.03], [0.5, -0.03], [0.0, 0.78]])
+
+
+@dataclass(frozen=True)
+class Profile:
+    """A performer profile.
+
+    Attributes
+    ----------
+    layout : (C, 4, 2) float
+        Mean feature curves in face units.
+    anchors : (3, 2) float
+        Expected anchor positions in face units (:data:`ANCHOR_NAMES`).
+    skin : SkinModel
+    lip_hue : LipHue
+    weights : (4,) float
+        Eq. 1's weights when there is no network (or before its first estimate).
+    net : dict of str -> ndarray
+        The 11-10-4 network's arrays (see :mod:`facepuppet.capture.color_net`); empty for none.
+    name : str
+    """
+
+    layout: np.ndarray = field(default_factory=lambda: GENERIC_LAYOUT.copy())
+    anchors: np.ndarray = field(default_factory=lambda: GENERIC_ANCHORS.copy())
+    skin: SkinModel = SkinModel()
+    lip_hue: LipHue = LipHue()
+    weights: np.ndarray = field(default_factory=lambda: DEFAULT_WEIGHTS.copy())
+    net: dict = field(default_factory=dict)
+    name: str = "generic"
+
+
+def default_profile() -> Profile:
+    """The built-in generic profile: average adult proportions, generic weights, no network."""
+    return Profile()
+
+
+def save_profile(path: str | os.PathLike, profile: Profile) -> None:
+    """Write ``profile`` as a versioned .npz (no pickle), atomically."""
+    arrays = {
+        "version": np.int64(PROFILE_VERSION),
+        "name": np.str_(profile.name),
+        "layout": np.asarray(profile.layout, dtype=np.float64),
+        "anchors": np.asarray(profile.anchors, dtype=np.float64),
+        "skin_mean": np.asarray(profile.skin.mean, dtype=np.float64),
+        "skin_cov": np.asarray(profile.skin.cov, dtype=np.float64),
+        "skin_threshold": np.float64(profile.skin.threshold),
+        "lip_hue": np.array([profile.lip_hue.centre, profile.lip_hue.width, profile.lip_hue.min_saturation]),
+        "weights": np.asarray(profile.weights, dtype=np.float64),
+    }
+    for k, v in profile.net.items():
+        arrays[f"net_{k}"] = np.asarray(v, dtype=np.float64)
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as fh:
+            np.savez(fh, **arrays)
+
+
+def load_profile(path: str | os.PathLike) -> Profile:
+    """Read a profile written by :func:`save_profile`.
+
+    Raises
+    ------
+    FacepuppetError
+        If the file is missing, unreadable, truncated, of a future version or lacks a field.
+    """
+    try:
+        with np.load(path, allow_pickle=False) as d:
+            data = {k: d[k] for k in d.files}
+    except FileNotFoundError as e:
+        raise FacepuppetError(f"{path}: no such profile file") from e
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as e:
+        raise FacepuppetError(f"{path}: not a readable profile file ({e})") from e
+    try:
+        version = int(data["version"])
+        if version > PROFILE_VERSION:
+            raise FacepuppetError(f"{path}: profile version {version} is newer than this facepuppet reads "
+                                  f"({PROFILE_VERSION}); upgrade facepuppet")
+        layout = data["layout"]
+        if layout.shape != GENERIC_LAYOUT.shape:
+            raise FacepuppetError(f"{path}: profile layout must have shape {GENERIC_LAYOUT.shape}, got {layout.shape}")
+        hue = data["lip_hue"]
+        cov = data["skin_cov"]
+        return Profile(
+            layout=layout,
+            anchors=data["anchors"],
+            skin=SkinModel(tuple(map(float, data["skin_mean"])), tuple(tuple(map(float, r)) for r in cov),
+                           float(data["skin_threshold"])),
+            lip_hue=LipHue(float(hue[0]), float(hue[1]), float(hue[2])),
+            weights=data["weights"],
+            net={k[4:]: v for k, v in data.items() if k.startswith("net_")},
+            name=str(data["name"]),
+        )
+    except KeyError as e:
+        raise FacepuppetError(f"{path}: profile file lacks the field {e.args[0]!r}") from e
+
+
+def calibrate_profile(frames, curves, *, base: Profile | None = None, name: str = "performer",
+                      augment: int = 6, seed: int = 0, progress: bool = False) -> Profile:
+    """Learn a performer profile from labelled frames (§3.1).
+
+    Parameters
+    ----------
+    frames : sequence of (H, W, 3) uint8
+        RGB frames of the performer (a short calibration clip).
+    curves : (F, C, 4, 2) float
+        The feature curves of each frame in image pixels (CURVE_NAMES order; NaN rows for unlabelled frames),
+        for example from the MediaPipe backend, or a synthetic performer's ground truth.
+    base : Profile, optional
+        Starting point (default :func:`default_profile`).
+    name : str
+    augment : int
+        Lighting variants per frame for the network's training set.
+    seed : int
+        Seed of the lighting variants.
+    progress : bool
+
+    Returns
+    -------
+    Profile
+        With the performer's layout and anchors, skin model, lip hue and the trained colour network.
+    """
+    from facepuppet.capture import _calibrate
+
+    return _calibrate.calibrate(frames, curves, base=base or default_profile(), name=name, augment=augment,
+                                seed=seed, progress=progress)
+
+
+def with_layout(profile: Profile, layout: np.ndarray, anchors: np.ndarray) -> Profile:
+    """A copy of ``profile`` with a new layout and anchors."""
+    return replace(profile, layout=np.asarray(layout, dtype=float), anchors=np.asarray(anchors, dtype=float))
