@@ -1,0 +1,456 @@
+"""The paper's colour tracker (§3): Eq. 1 intensity, blobs in anthropometric rectangles, Bezier snakes.
+
+Per frame: the face frame of the last frame (or, when the face is lost, a fresh one from the skin model)
+gives a small upright crop of the face (rectangles follow translation, scale and roll); Eq. 1 and the
+contrast C turn it into feature intensity; a blob is grown in each feature's rectangle; each curve is fitted
+to its blob's boundary and refined as a snake (Eqs. 2-4) against the head's up-vector; the blobs' anchors
+re-align the face frame for the next frame; the head pose comes from the stable curve ends.
+
+Conventions: RGB uint8 frames; curves in image pixels (x right, y down); left and right are the performer's.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from facepuppet.capture.blobs import BlobConfig, column_profile, grow_blob
+from facepuppet.capture.color import contrast, lip_hue_table, transform
+from facepuppet.capture.curves import CURVE_NAMES, POINT_NAMES, bernstein, bezier_points
+from facepuppet.capture.face import CROP_EXTENT, FEATURE_BOXES, FaceFrame, find_face, similarity_from_points
+from facepuppet.capture.features import FrameFeatures
+from facepuppet.capture.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
+from facepuppet.capture.snakes import LOWER, UPPER, SnakeConfig, minimise_snakes, snake_fields
+
+__all__ = ["ColorTrackerConfig", "ColorTracker"]
+
+log = logging.getLogger(__name__)
+
+_IDX = {n: i for i, n in enumerate(CURVE_NAMES)}
+_K = 12  # boundary samples per curve
+_T = np.linspace(0.0, 1.0, _K)
+_B = bernstein(_T)                                     # (K, 4)
+_PINV_MID = np.linalg.pinv(_B[:, 1:3])                 # (2, K): middle control points with fixed ends
+_PINV_ALL = np.linalg.pinv(_B)                         # (4, K)
+
+#: Blob options per rectangle.
+_BLOB = {
+    "brow": BlobConfig(seed_level=0.6, grow_level=0.3, radius=1, close=3),
+    "eye": BlobConfig(seed_level=0.7, grow_level=0.35, radius=1, close=3),
+    "nose": BlobConfig(seed_level=0.7, grow_level=0.4, radius=0, close=0),
+    "mouth": BlobConfig(seed_level=0.6, grow_level=0.3, radius=1, close=3),
+}
+
+#: Curves refined as snakes, with the side their feature lies on (Fig. 3).
+_SNAKE_CURVES = (("eye_left_upper", UPPER), ("eye_right_upper", UPPER), ("lip_upper_outer", UPPER),
+                 ("lip_lower_outer", LOWER))
+
+
+@dataclass(frozen=True)
+class ColorTrackerConfig:
+    """Options of the colour tracker.
+
+    Attributes
+    ----------
+    px : float
+        Crop pixels per face unit (eye-centre distance): the work is proportional to its square.
+    reestimate_every : int
+        Frames between re-estimates of Eq. 1's weights by the colour network.
+    snake : SnakeConfig
+    smoothing : float
+        Speed (face units per frame) at which the curve filter stops smoothing; 0 disables smoothing.
+    min_smoothing : float
+        Filter gain for a still curve (1 = no smoothing).
+    frame_gain : float
+        How much of each frame's anchor correction re-aligns the face frame.
+    """
+
+    px: float = 48.0
+    reestimate_every: int = 15
+    snake: SnakeConfig = field(default_factory=lambda: SnakeConfig(iterations=5, samples=10, offset=1.5, step=1.0))
+    smoothing: float = 0.04
+    min_smoothing: float = 0.35
+    frame_gain: float = 0.5
+    max_misses: int = 15
+    min_score: float = 0.05
+    min_acquire_score: float = 0.15
+
+
+def _box_px(box, px):
+    x0, y0 = CROP_EXTENT[0], CROP_EXTENT[1]
+    return (int(round((box[0] - x0) * px)), int(round((box[1] - y0) * px)),
+            int(round((box[2] - x0) * px)), int(round((box[3] - y0) * px)))
+
+
+class ColorTracker:
+    """The paper's colour tracker; a :class:`~facepuppet.capture.features.Tracker` backend.
+
+    Parameters
+    ----------
+    profile : Profile, path or None
+        The performer profile (a .npz of :func:`~facepuppet.capture.profile.save_profile`); default the
+        built-in generic profile.
+    config : ColorTrackerConfig
+    """
+
+    name = "color"
+
+    def __init__(self, profile: Profile | str | os.PathLike | None = None, *,
+                 config: ColorTrackerConfig = ColorTrackerConfig()):
+        if profile is None:
+            profile = default_profile()
+        elif not isinstance(profile, Profile):
+            profile = load_profile(profile)
+        self.profile = profile
+        self.config = config
+        self._hue = lip_hue_table(profile.lip_hue)
+        self._weights = np.asarray(profile.weights, dtype=np.float32)
+        self._net = None
+        if profile.net:
+            from facepuppet.capture.color_net import ColourNet
+
+            self._net = ColourNet.from_arrays(profile.net)
+        px = config.px
+        self._size = (int(round((CROP_EXTENT[2] - CROP_EXTENT[0]) * px)),
+                      int(round((CROP_EXTENT[3] - CROP_EXTENT[1]) * px)))
+        shift = self._layout_shift(profile.layout)
+        self._boxes = {k: _box_px(np.asarray(b) + np.r_[shift.get(k, (0, 0)), shift.get(k, (0, 0))], px)
+                       for k, b in FEATURE_BOXES.items()}
+        self._layout_px = (np.asarray(profile.layout) - CROP_EXTENT[:2]) * px
+        self._anchors_px = (np.asarray(profile.anchors) - CROP_EXTENT[:2]) * px
+        self._frame: FaceFrame | None = None
+        self._ref: np.ndarray | None = None
+        self._misses = 0
+        self._shift = np.zeros(2)
+        self._make_template()
+        self._smooth: np.ndarray | None = None
+        self._pose = None
+        self._count = 0
+
+    @staticmethod
+    def _layout_shift(layout: np.ndarray) -> dict[str, np.ndarray]:
+        d = np.asarray(layout) - GENERIC_LAYOUT
+        g = lambda *names: d[[_IDX[n] for n in names]].reshape(-1, 2).mean(0)  # noqa: E731
+        return {
+            "brow_left": g("brow_left"), "brow_right": g("brow_right"),
+            "eye_left": g("eye_left_upper", "eye_left_lower"), "eye_right": g("eye_right_upper", "eye_right_lower"),
+            "nose": g("nostril_left", "nostril_right"),
+            "mouth": g("lip_upper_outer", "lip_lower_outer"),
+        }
+
+    # -- per frame -------------------------------------------------------------------------------------
+    def track(self, rgb: np.ndarray, timestamp_ms: int) -> FrameFeatures:
+        """Track one RGB frame (H, W, 3) uint8; see :class:`~facepuppet.capture.features.Tracker`."""
+        rgb = np.asarray(rgb)
+        if rgb.ndim == 2:
+            rgb = cv2.cvtColor(rgb, cv2.COLOR_GRAY2RGB)
+        if rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.dtype != np.uint8:
+            raise ValueError(f"rgb must be an (H, W, 3) uint8 image, got shape {rgb.shape} dtype {rgb.dtype}")
+        h, w = rgb.shape[:2]
+        result = None
+        if self._frame is not None:
+            result = self._measure(rgb, self._frame, follow=True, gain=self.config.frame_gain)
+            if result is not None:
+                self._misses = 0 if result[2] else self._misses + 1
+                if self._misses > self.config.max_misses or result[3] < self.config.min_score:
+                    result = None
+        if result is None:
+            result = self._acquire(rgb)
+        if result is None:
+            self._frame = None
+            return FrameFeatures.lost(len(CURVE_NAMES), len(POINT_NAMES))
+        curves, self._frame = result[0], result[1]
+        curves = self._filter(curves)
+        return self._features(curves, (w, h))
+
+    def _acquire(self, rgb: np.ndarray):
+        """Find the face afresh: skin region and eye holes, then the candidate frame that looks most like a face."""
+        self._smooth = None
+        self._pose = None
+        self._misses = 0
+        self._ref = None
+        frame = find_face(rgb, self.profile.skin)
+        if frame is None or frame.unit < 6:
+            return None
+        best = None
+        for dy in (0.0, 0.35, -0.35):
+            for s in (1.0, 0.8, 1.25):
+                cand = frame.compose(np.array([[s, 0.0, 0.0], [0.0, s, dy]]))
+                result = None
+                for _ in range(3):
+                    result = self._measure(rgb, cand, follow=False, gain=1.0)
+                    if result is None:
+                        break
+                    cand = result[1]
+                if result is not None and result[2] and (best is None or result[3] > best[3]):
+                    best = result
+        if best is None or best[3] < self.config.min_acquire_score:
+            return None
+        A = best[1].crop_matrix(self.config.px)
+        self._ref = self._grey(cv2.warpAffine(rgb, A, self._size, flags=cv2.INTER_LINEAR,
+                                              borderMode=cv2.BORDER_REPLICATE))
+        return best
+
+    def close(self) -> None:
+        """Nothing to release; kept for the Tracker protocol."""
+
+    # -- internals -------------------------------------------------------------------------------------
+    def _filter(self, curves: np.ndarray) -> np.ndarray:
+        cfg = self.config
+        if cfg.smoothing <= 0 or self._smooth is None:
+            self._smooth = curves
+            return curves
+        unit = self._frame.unit
+        speed = np.abs(curves - self._smooth).max(axis=(1, 2)) / unit
+        a = np.clip(cfg.min_smoothing + (1 - cfg.min_smoothing) * speed / cfg.smoothing, 0.0, 1.0)
+        self._smooth = self._smooth + a[:, None, None] * (curves - self._smooth)
+        return self._smooth
+
+    def _features(self, curves: np.ndarray, size: tuple[int, int]) -> FrameFeatures:
+        from facepuppet.capture.pose import STABLE_FEATURES, estimate_pose, points_in_head, pose_points_from_curves
+
+        pts = pose_points_from_curves(curves, STABLE_FEATURES)
+        pose = estimate_pose(pts, size, previous=self._pose)
+        if not pose:
+            pose = estimate_pose(pts, size)
+        self._pose = pose if pose else None
+        if pose:
+            points = points_in_head(curves, pose)
+            return FrameFeatures(True, curves, pose.rotation, pose.translation, points)
+        nan = np.nan
+        return FrameFeatures(True, curves, np.full((3, 3), nan), np.full(3, nan), np.full((len(POINT_NAMES), 3), nan))
+
+    def intensity(self, crop: np.ndarray) -> np.ndarray:
+        """Eq. 1 and the contrast C on a face crop (H, W, 3) uint8 -> (H, W) float32 in [0, 1]."""
+        if self._net is not None and (self._count % self.config.reestimate_every == 0):
+            from facepuppet.capture.color_net import subarea_means
+
+            self._weights = self._net.predict(subarea_means(crop, self.config.px))
+        self._count += 1
+        img = transform(crop, self._weights, self._hue, self.profile.lip_hue.min_saturation)
+        x0, y0, x1, y1 = self._boxes["cheek_left"]
+        a0, b0, a1, b1 = self._boxes["cheek_right"]
+        skin = np.concatenate([img[y0:y1, x0:x1].ravel(), img[b0:b1, a0:a1].ravel()])
+        low = float(np.median(skin))
+        e = [self._boxes["eye_left"], self._boxes["eye_right"]]
+        feat = max(float(img[b[1]:b[3], b[0]:b[2]].max()) for b in e)
+        return contrast(img, low + 0.15 * (feat - low), low + 0.75 * (feat - low), out=img)
+
+    def _measure(self, rgb: np.ndarray, frame: FaceFrame, *, follow: bool, gain: float):
+        """Track one frame in the face frame ``frame``.
+
+        Returns
+        -------
+        tuple or None
+            (curves (C, 4, 2) image pixels, re-aligned face frame, eyes found, face score), or None when the
+            crop shows no face (no skin on the cheeks).
+        """
+        px = self.config.px
+        A = frame.crop_matrix(px)
+        crop = cv2.warpAffine(rgb, A, self._size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        if follow and self._ref is not None:
+            moved = self._follow(crop, A)
+            if moved is not None and 0.8 < moved.unit / frame.unit < 1.25:
+                frame = moved
+                A = frame.crop_matrix(px)
+                crop = cv2.warpAffine(rgb, A, self._size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        if not self._skin_ok(crop):
+            return None
+        C = self.intensity(crop)
+        eyes = self._eye_centres(C)
+        S_px = np.eye(2, 3)
+        if eyes is not None:
+            # The eyes re-align the layout in this crop (similarity in crop pixels) and the face frame.
+            S_px = similarity_from_points(self._anchors_px[:2], eyes)
+            if not (0.8 < float(np.hypot(*S_px[:, 0])) < 1.25):
+                eyes, S_px = None, np.eye(2, 3)
+        scale = float(np.hypot(*S_px[:, 0]))
+        layout = self._layout_px @ S_px[:, :2].T + S_px[:, 2]
+        self._shift = S_px[:, 2] + (S_px[:, :2] - np.eye(2)) @ self._anchors_px[:2].mean(axis=0)
+        curves_px = self._blobs(C, layout, px * scale)
+        idx = [_IDX[n] for n, _ in _SNAKE_CURVES]
+        if idx:
+            side = np.array([s for _, s in _SNAKE_CURVES])
+            curves_px[idx] = minimise_snakes(curves_px[idx], side, np.array([0.0, -1.0]), snake_fields(C, 5),
+                                             self.config.snake, fixed_ends=np.ones(len(idx), bool))
+        score = self._face_score(C, S_px)
+        # Back to image pixels.
+        Ainv = cv2.invertAffineTransform(A)
+        curves = curves_px @ Ainv[:, :2].T + Ainv[:, 2]
+        if eyes is None:
+            return curves, frame, False, score
+        obs = eyes / px + CROP_EXTENT[:2]
+        S = similarity_from_points(np.asarray(self.profile.anchors)[:2], obs)
+        return curves, frame.blend(frame.compose(S), gain), True, score
+
+    def _face_score(self, C: np.ndarray, S_px: np.ndarray) -> float:
+        """Correlation of the feature intensity with the profile's layout drawn as a face (in [-1, 1])."""
+        T = cv2.warpAffine(self._template, S_px.astype(np.float32), self._size, flags=cv2.INTER_LINEAR)
+        m = self._template_mask
+        a, t = C[m], T[m]
+        a = a - a.mean()
+        t = t - t.mean()
+        return float((a * t).sum() / max(np.sqrt((a * a).sum() * (t * t).sum()), 1e-9))
+
+    def _make_template(self) -> None:
+        """The layout drawn as bright features on dark skin: eyes, brows, mouth line and nostrils."""
+        px = self.config.px
+        T = np.zeros(self._size[::-1], np.float32)
+        L = self._layout_px
+        for name in CURVE_NAMES:
+            pts = np.round(bezier_points(L[_IDX[name]], 16) * 4).astype(np.int32)
+            cv2.polylines(T, [pts], False, 1.0, thickness=max(1, int(0.06 * px)), lineType=cv2.LINE_AA, shift=2)
+        self._template = cv2.GaussianBlur(T, (0, 0), 0.05 * px)
+        m = np.zeros_like(T, dtype=bool)
+        x0, y0 = _box_px((-0.95, -0.6, 0.95, 1.7), px)[:2]
+        x1, y1 = _box_px((-0.95, -0.6, 0.95, 1.7), px)[2:]
+        m[y0:y1, x0:x1] = True
+        self._template_mask = m
+
+    def _eye_centres(self, C: np.ndarray) -> np.ndarray | None:
+        """Eye centres (2, 2) in crop pixels by a few mean-shift steps of C around the expected anchors."""
+        px = self.config.px
+        hw, hh = int(round(0.3 * px)), int(round(0.14 * px))
+        h, w = C.shape
+        out = np.zeros((2, 2))
+        for k in range(2):
+            c = self._anchors_px[k].astype(float)
+            for _ in range(3):
+                x0, y0 = int(round(c[0])) - hw, int(round(c[1])) - hh
+                xa, ya = max(x0, 0), max(y0, 0)
+                win = C[ya:min(y0 + 2 * hh + 1, h), xa:min(x0 + 2 * hw + 1, w)]
+                wt = win * win
+                total = float(wt.sum())
+                if total < 0.01 * (2 * hw + 1) * (2 * hh + 1):
+                    return None
+                c = np.array([float((wt.sum(0) * np.arange(wt.shape[1])).sum()) / total + xa,
+                              float((wt.sum(1) * np.arange(wt.shape[0])).sum()) / total + ya])
+            out[k] = c
+        return out
+
+    def _grey(self, crop: np.ndarray) -> np.ndarray:
+        h, w = crop.shape[:2]
+        g = cv2.cvtColor(cv2.resize(crop, (w // 2, h // 2), interpolation=cv2.INTER_AREA), cv2.COLOR_RGB2GRAY)
+        return g.astype(np.float32)
+
+    def _follow(self, crop: np.ndarray, A: np.ndarray) -> FaceFrame | None:
+        """The face frame moved by aligning the crop on the reference crop (ECC, affine)."""
+        warp = np.eye(2, 3, dtype=np.float32)
+        try:
+            _, warp = cv2.findTransformECC(self._ref, self._grey(crop), warp, cv2.MOTION_AFFINE,
+                                           (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 15, 1e-3), None, 3)
+        except cv2.error:
+            return None
+        W = warp.astype(float)
+        W[:, 2] *= 2.0
+        Ainv = cv2.invertAffineTransform(A)
+        M = Ainv[:, :2] @ W[:, :2]
+        t = Ainv[:, :2] @ W[:, 2] + Ainv[:, 2]
+        px = self.config.px
+        o_crop = np.array([-CROP_EXTENT[0], -CROP_EXTENT[1]]) * px
+        origin = M @ o_crop + t
+        axis = M @ np.array([px, 0.0])
+        return FaceFrame(origin, axis)
+
+    def _skin_ok(self, crop: np.ndarray) -> bool:
+        from facepuppet.capture.face import skin_probability
+
+        x0, y0, x1, y1 = self._boxes["cheek_left"]
+        a0, b0, a1, b1 = self._boxes["cheek_right"]
+        sk = skin_probability(np.concatenate([crop[y0:y1, x0:x1], crop[b0:b1, a0:a1]], axis=1), self.profile.skin)
+        return float(sk.mean()) > 0.3 * 255
+
+    def _box(self, name: str, layout: np.ndarray) -> tuple[int, int, int, int]:
+        """A feature rectangle (crop pixels) moved with the layout's eyes (translation only), clipped."""
+        x0, y0, x1, y1 = self._boxes[name]
+        d = np.round(self._shift).astype(int)
+        h, w = self._size[1], self._size[0]
+        return (min(max(x0 + d[0], 0), w), min(max(y0 + d[1], 0), h),
+                min(max(x1 + d[0], 0), w), min(max(y1 + d[1], 0), h))
+
+    def _blobs(self, C: np.ndarray, layout: np.ndarray, unit: float) -> np.ndarray:
+        """The layout (C, 4, 2, crop pixels) moved onto each feature's blob, within plausible bounds (§3.2).
+
+        ``unit`` is crop pixels per face unit. A feature whose blob is missing keeps its layout curve.
+        """
+        out = layout.copy()
+        for side in ("right", "left"):
+            x0, y0, x1, y1 = self._box(f"eye_{side}", layout)
+            blob = grow_blob(C[y0:y1, x0:x1], _BLOB["eye"])
+            if blob is None:
+                continue
+            cols, top, bottom = column_profile(blob.mask)
+            up, lo = _IDX[f"eye_{side}_upper"], _IDX[f"eye_{side}_lower"]
+            y = self._sample_profile(out[lo], cols, bottom + y0, x0)
+            if y is not None:
+                mid = _PINV_MID @ (y - _B[:, 0] * out[lo, 0, 1] - _B[:, 3] * out[lo, 3, 1])
+                out[lo, 1:3, 1] = np.clip(mid, layout[lo, 1:3, 1] - 0.08 * unit, layout[lo, 1:3, 1] + 0.08 * unit)
+            y = self._sample_profile(out[up], cols, top + y0, x0)
+            if y is not None:
+                mid = _PINV_MID @ (y - _B[:, 0] * out[up, 0, 1] - _B[:, 3] * out[up, 3, 1])
+                mid = np.clip(mid, layout[up, 1:3, 1] - 0.1 * unit, layout[up, 1:3, 1] + 0.2 * unit)
+                # The upper lid may not cross the lower one.
+                out[up, 1:3, 1] = np.minimum(mid, out[lo, 1:3, 1] - 0.02 * unit)
+        for side in ("right", "left"):
+            x0, y0, x1, y1 = self._box(f"brow_{side}", layout)
+            blob = grow_blob(C[y0:y1, x0:x1], _BLOB["brow"])
+            if blob is None:
+                continue
+            cols, top, bottom = column_profile(blob.mask)
+            c = _IDX[f"brow_{side}"]
+            y = self._sample_profile(out[c], cols, (top + bottom) / 2.0 + y0, x0)
+            if y is not None:
+                d = float(np.median(y - _B @ out[c, :, 1]))
+                out[c, :, 1] += np.clip(d, -0.15 * unit, 0.15 * unit)
+        self._mouth(C, layout, out, unit)
+        return out
+
+    def _mouth(self, C: np.ndarray, layout: np.ndarray, out: np.ndarray, unit: float) -> None:
+        """Mouth corners and opening from the mouth blob; the outer lips keep the layout's lip thickness."""
+        x0, y0, x1, y1 = self._box("mouth", layout)
+        blob = grow_blob(C[y0:y1, x0:x1], _BLOB["mouth"])
+        if blob is None:
+            return
+        cols, top, bottom = column_profile(blob.mask)
+        xs = np.flatnonzero(cols)
+        if len(xs) < 4:
+            return
+        names = ("lip_upper_outer", "lip_lower_outer", "lip_upper_inner", "lip_lower_inner")
+        uo, lo, ui, li = (_IDX[n] for n in names)
+        lx_l, lx_r = layout[uo, 0, 0], layout[uo, 3, 0]
+        ly_l, ly_r = layout[uo, 0, 1], layout[uo, 3, 1]
+        b = 0.12 * unit
+        xl = float(np.clip(xs[0] + x0, lx_l - b, lx_l + b))
+        xr = float(np.clip(xs[-1] + 1 + x0, lx_r - b, lx_r + b))
+        mid = (top + bottom) / 2.0 + y0
+        yl = float(np.clip(mid[xs[0]:xs[0] + 3].mean(), ly_l - b, ly_l + b))
+        yr = float(np.clip(mid[xs[-1] - 2:xs[-1] + 1].mean(), ly_r - b, ly_r + b))
+        for c in (uo, lo, ui, li):
+            ctrl = out[c]
+            l0, l1 = layout[c, 0, 0], layout[c, 3, 0]
+            # Each curve keeps its end offsets from the outer corners (inner lip ends lie inside the mouth).
+            el, er = l0 - lx_l, l1 - lx_r
+            ctrl[:, 0] = (xl + el) + (layout[c, :, 0] - l0) * ((xr + er) - (xl + el)) / max(l1 - l0, 1e-6)
+            ctrl[0, 1], ctrl[3, 1] = yl + (layout[c, 0, 1] - ly_l), yr + (layout[c, 3, 1] - ly_r)
+        for c, prof, lo_b, hi_b in ((ui, top, -0.15, 0.15), (li, bottom, -0.15, 0.5)):
+            ctrl = out[c]
+            y = self._sample_profile(ctrl, cols, prof + y0, x0)
+            if y is not None:
+                m = _PINV_MID @ (y - _B[:, 0] * ctrl[0, 1] - _B[:, 3] * ctrl[3, 1])
+                ctrl[1:3, 1] = np.clip(m, layout[c, 1:3, 1] + lo_b * unit, layout[c, 1:3, 1] + hi_b * unit)
+        out[li, 1:3, 1] = np.maximum(out[li, 1:3, 1], out[ui, 1:3, 1])
+        out[uo, 1:3, 1] = out[ui, 1:3, 1] + (layout[uo, 1:3, 1] - layout[ui, 1:3, 1])
+        out[lo, 1:3, 1] = out[li, 1:3, 1] + (layout[lo, 1:3, 1] - layout[li, 1:3, 1])
+
+    @staticmethod
+    def _sample_profile(ctrl: np.ndarray, cols: np.ndarray, prof: np.ndarray, x0: int) -> np.ndarray | None:
+        """A blob profile (per rectangle column) read at the x of the curve's K samples; None if too few."""
+        xs = np.flatnonzero(cols)
+        if len(xs) < 3:
+            return None
+        x_samples = _B @ ctrl[:, 0] - x0 - 0.5
+        return np.interp(x_samples, xs, prof[xs])

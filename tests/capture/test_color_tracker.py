@@ -1,0 +1,113 @@
+"""The paper's colour tracker on real footage: valid frames, curves near MediaPipe's, lost and found."""
+
+import cv2
+import numpy as np
+import pytest
+
+from facepuppet.capture.color_tracker import ColorTracker
+from facepuppet.capture.curves import CURVE_NAMES, POINT_NAMES, bezier_points
+from facepuppet.capture.features import Tracker
+from facepuppet.capture.profile import default_profile, save_profile
+
+_IDX = {n: i for i, n in enumerate(CURVE_NAMES)}
+MEASURED = [n for n in CURVE_NAMES if not n.startswith("nostril")]
+
+
+def _frames(path, n, step=1):
+    cap = cv2.VideoCapture(str(path))
+    out = []
+    k = 0
+    while len(out) < n:
+        ok, bgr = cap.read()
+        if not ok:
+            break
+        if k % step == 0:
+            out.append(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
+        k += 1
+    cap.release()
+    return out
+
+
+def _nme(ours, ref):
+    """Mean distance from the reference curve's samples to ours, over the outer-eye-corner distance."""
+    span = np.linalg.norm(ref[_IDX["eye_left_upper"], 3] - ref[_IDX["eye_right_upper"], 3])
+    d = []
+    for n in MEASURED:
+        p = bezier_points(ref[_IDX[n]], 9)
+        q = bezier_points(ours[_IDX[n]], 64)
+        d.append(np.linalg.norm(p[:, None] - q[None], axis=-1).min(axis=1).mean())
+    return np.array(d) / span
+
+
+@pytest.fixture(scope="module")
+def clip(assets, face_landmarker):
+    """40 frames (every 3rd of the first 120) of performer_a with MediaPipe's curves."""
+    from facepuppet.capture.tracking import make_tracker
+
+    frames = _frames(assets / "video" / "performer_a.mp4", 40, step=3)
+    mp = make_tracker("mediapipe", model_path=face_landmarker, running_mode="image")
+    try:
+        ref = [mp.track(f, 100 * i) for i, f in enumerate(frames)]
+    finally:
+        mp.close()
+    assert all(r.valid for r in ref)
+    return frames, np.stack([r.curves for r in ref])
+
+
+def test_is_a_tracker():
+    assert isinstance(ColorTracker(), Tracker)
+
+
+def test_tracks_a_real_clip_near_mediapipe(clip):
+    frames, ref = clip
+    tracker = ColorTracker()
+    got = [tracker.track(f, 100 * i) for i, f in enumerate(frames)]
+    assert all(g.valid for g in got)
+    nme = np.stack([_nme(g.curves, r) for g, r in zip(got, ref, strict=True)])
+    # Generous bound (measured about 0.05 on the whole clip); each family well under a tenth of the eye span.
+    assert nme.mean() < 0.08, nme.mean(axis=0)
+    assert np.all(nme.mean(axis=0) < 0.14), dict(zip(MEASURED, nme.mean(axis=0).round(3), strict=True))
+    g = got[5]
+    assert g.curves.shape == (len(CURVE_NAMES), 4, 2) and g.points.shape == (len(POINT_NAMES), 3)
+    assert np.isfinite(g.rotation).all() and np.isfinite(g.points).all()
+    np.testing.assert_allclose(g.rotation @ g.rotation.T, np.eye(3), atol=1e-6)
+
+
+def test_blank_frame_is_lost_then_the_face_is_reacquired(clip):
+    frames, ref = clip
+    tracker = ColorTracker()
+    assert tracker.track(frames[0], 0).valid
+    blank = np.zeros_like(frames[0])
+    lost = tracker.track(blank, 100)
+    assert not lost.valid and np.isnan(lost.curves).all() and np.isnan(lost.points).all()
+    grey = np.full_like(frames[0], 128)
+    assert not tracker.track(grey, 200).valid
+    back = tracker.track(frames[10], 300)
+    assert back.valid
+    assert _nme(back.curves, ref[10]).mean() < 0.1
+
+
+def test_profile_from_a_file(tmp_path, clip):
+    frames, _ = clip
+    path = tmp_path / "generic.npz"
+    save_profile(path, default_profile())
+    assert ColorTracker(path).track(frames[0], 0).valid
+
+
+def test_bad_input_is_named():
+    with pytest.raises(ValueError, match="rgb"):
+        ColorTracker().track(np.zeros((10, 10, 3), np.float32), 0)
+    assert not ColorTracker().track(np.zeros((4, 4, 3), np.uint8), 0).valid
+
+
+def test_calibrated_profile_tracks_the_rest_of_the_clip(clip):
+    from facepuppet.capture.profile import calibrate_profile
+
+    frames, ref = clip
+    prof = calibrate_profile(frames[:15], ref[:15], augment=2)
+    assert prof.net and prof.anchors.shape == (3, 2)
+    tracker = ColorTracker(prof)
+    got = [tracker.track(f, 100 * i) for i, f in enumerate(frames[15:])]
+    assert all(g.valid for g in got)
+    nme = np.stack([_nme(g.curves, r) for g, r in zip(got, ref[15:], strict=True)])
+    assert nme.mean() < 0.08, nme.mean(axis=0)
