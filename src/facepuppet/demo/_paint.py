@@ -1,12 +1,15 @@
 """Painting the digital performer (:mod:`facepuppet.demo.performer`): skin head by ray casting, features by
 anti-aliased polygons of projected 3D outlines, camera noise.
 
-The head, jaw, cheeks, nose, alae, ears and neck are ellipsoids in head coordinates (cm), ray cast at half
-resolution over the head's bounding box with Lambert shading under a light fixed to the camera, and blended
-over a background with a shirt. The features are painted on top: brows (thick strokes around the brow
-curves), eyes (sclera and iris clipped to the lid opening, a lash band on the upper lid margin, a lower lid
-line), lips (red between the outer curves, a dark opening between the inner curves) and nostrils (dark
-strokes around the nostril curves). Every outline is a 3D curve of the performer projected with the true pose.
+The head, jaw, cheeks, nose, alae, ears and neck are ellipsoids in head coordinates (cm), ray cast on a grid
+three times coarser than the frame over the head's bounding box, with Lambert shading under a light fixed to
+the camera, and blended over a background with a shirt; the silhouettes' coverage comes from the interpolated
+signed distance to them, so the edges stay sharp and smooth at full resolution.
+
+The features are painted on top: brows (thick strokes around the brow curves), eyes (sclera and iris clipped
+to the lid opening, a lash band on the upper lid margin, a lower lid line), lips (red between the outer
+curves, a dark opening between the inner curves) and nostrils (dark strokes around the nostril curves). Every
+outline is a 3D curve of the performer projected with the true pose.
 """
 
 from __future__ import annotations
@@ -46,7 +49,7 @@ _NOISE_SIGMA = 2.5
 
 _TO_LIGHT = np.array([-0.45, -0.55, -0.70])  # camera coordinates (x right, y down, z forward): upper left front
 _TO_LIGHT /= np.linalg.norm(_TO_LIGHT)
-_AMBIENT, _DIFFUSE = 0.42, 0.66
+_AMBIENT, _DIFFUSE = 0.5, 0.58
 
 # Ellipsoids of the head: centre (3,), radii (3,), part (0 skin, 1 skin with hair above the hairline, 2 neck).
 _CRANIUM = ((0.0, 0.3, -7.6), (7.3, 10.0, 9.0), 1)
@@ -60,7 +63,10 @@ _EAR = ((7.0, -2.0, -7.4), (0.9, 2.8, 1.7), 0)
 _NECK = ((0.0, -19.0, -7.2), (5.4, 12.0, 4.8), 2)
 _SMOOTH = 9  # the face's ellipsoids (the first ones of _ellipsoids), whose creases are smoothed in the shading
 _BLEND = 4.0  # sharpness of the smooth union of their normals
+_RING = 1.5  # coarse pixels outside a silhouette that still get a colour
+_SUB = 3  # the head is ray cast on a grid this many times coarser than the frame
 
+_UNIT = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)  # box corners
 _S24 = np.linspace(0.0, 1.0, 24)
 _B24 = bernstein(_S24)
 
@@ -113,7 +119,7 @@ def _noise_tiles(w: int, h: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _shade_head(img: np.ndarray, w: np.ndarray, pose: HeadPose) -> None:
-    """Ray cast the head's ellipsoids at half resolution over their bounding box and blend them into ``img``.
+    """Ray cast the head's ellipsoids on a coarse grid over their bounding box and blend them into ``img``.
 
     Two layers, composited with their anti-aliased coverage: behind, the ears and neck; in front, the face's
     ellipsoids (head, jaw, chin, cheeks, nose), whose normals are blended by a soft minimum of their implicit
@@ -121,41 +127,58 @@ def _shade_head(img: np.ndarray, w: np.ndarray, pose: HeadPose) -> None:
     """
     h_img, w_img = img.shape[:2]
     ells = _ellipsoids(w)
-    unit = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
-    boxes = pose.project(np.concatenate([c + r * unit for c, r, _ in ells])).reshape(len(ells), 8, 2)
+    boxes = pose.project(np.concatenate([c + r * _UNIT for c, r, _ in ells])).reshape(len(ells), 8, 2)
     lo, hi = boxes.min(1), boxes.max(1)
-    x0, y0 = np.maximum((np.floor(lo.min(0)).astype(int) - 4) // 2 * 2, 0)
-    x1 = min((int(np.ceil(hi[:, 0].max())) + 4) // 2 * 2, w_img // 2 * 2)
-    y1 = min((int(np.ceil(hi[:, 1].max())) + 4) // 2 * 2, h_img // 2 * 2)
+    f = _SUB
+    x0, y0 = np.maximum((np.floor(lo.min(0)).astype(int) - 4) // f * f, 0)
+    x1 = min((int(np.ceil(hi[:, 0].max())) + 4 + f) // f * f, w_img // f * f)
+    y1 = min((int(np.ceil(hi[:, 1].max())) + 4 + f) // f * f, h_img // f * f)
     if x1 <= x0 or y1 <= y0:
         return
-    grid = (x0, y0, (x1 - x0) // 2, (y1 - y0) // 2)
-    front = _cast(ells[:_SMOOTH], lo[:_SMOOTH], hi[:_SMOOTH], pose, grid, smooth=True)
-    back = _cast(ells[_SMOOTH:], lo[_SMOOTH:], hi[_SMOOTH:], pose, grid, smooth=False)
-    layer = front + back * (1.0 - front[..., 3:])
+    grid = (x0, y0, (x1 - x0) // f, (y1 - y0) // f)
+    rgb_f, d_f = _cast(ells[:_SMOOTH], lo[:_SMOOTH], hi[:_SMOOTH], pose, grid, smooth=True)
+    rgb_b, d_b = _cast(ells[_SMOOTH:], lo[_SMOOTH:], hi[_SMOOTH:], pose, grid, smooth=False)
+    a_f = np.clip(d_f + 0.5, 0.0, 1.0)[..., None]
+    rgb = np.where((d_b > -_RING)[..., None], rgb_f * a_f + rgb_b * (1.0 - a_f), rgb_f)
+    layer = np.concatenate([rgb, np.maximum(d_f, d_b)[..., None]], axis=2)
     big = cv2.resize(layer, (x1 - x0, y1 - y0), interpolation=cv2.INTER_LINEAR)
+    # the silhouette's coverage from the interpolated signed distance: sharp and smooth at full resolution
+    alpha = np.clip(big[..., 3:] * np.float32(f) + np.float32(0.5), 0.0, 1.0)
     roi = img[y0:y1, x0:x1]
-    roi[:] = np.clip(roi * (1.0 - big[..., 3:]) + big[..., :3], 0, 255).astype(np.uint8)
+    out = roi.astype(np.float32)
+    out += alpha * (big[..., :3] - out)
+    np.copyto(roi, out, casting="unsafe")
 
 
-def _cast(ells, lo, hi, pose: HeadPose, grid, smooth: bool) -> np.ndarray:
-    """Premultiplied RGBA (ny, nx, 4) float32 of the nearest hits of rays through the half-resolution grid."""
+def _cast(ells, lo, hi, pose: HeadPose, grid, smooth: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Shade the nearest ellipsoid along the ray through each pixel of the coarse grid.
+
+    Returns
+    -------
+    rgb : (ny, nx, 3) float32
+        Shaded colour; also on a ring of :data:`_RING` coarse pixels outside the silhouette (shaded at the
+        ray's closest approach), so that interpolation across the edge never mixes in an undefined colour.
+    distance : (ny, nx) float32
+        Signed distance to the silhouette in coarse pixels, positive inside (about; exact near the edge).
+    """
     x0, y0, nx, ny = grid
     R, t, K = pose.rotation, pose.translation, pose.camera_matrix
-    u = (x0 + 2.0 * np.arange(nx) + 0.5).astype(np.float32)
-    v = (y0 + 2.0 * np.arange(ny) + 0.5).astype(np.float32)
+    u = (x0 + _SUB * np.arange(nx) + (_SUB - 1) / 2.0).astype(np.float32)  # centres of the coarse pixels
+    v = (y0 + _SUB * np.arange(ny) + (_SUB - 1) / 2.0).astype(np.float32)
     A = (R.T @ np.linalg.inv(K)).astype(np.float32)  # ray direction in head coordinates: A @ (u, v, 1)
     o = (-R.T @ t).astype(np.float32)  # camera centre in head coordinates
-    f_half = K[0, 0] / 2.0
+    f_sub = K[0, 0] / _SUB
     best = np.full((ny, nx), np.inf, np.float32)
-    cover = np.zeros((ny, nx), np.float32)
     which = np.full((ny, nx), -1, np.int8)
-    layer = np.zeros((ny, nx, 4), np.float32)
+    ring_s = np.full((ny, nx), np.inf, np.float32)
+    ring_which = np.full((ny, nx), -1, np.int8)
+    distance = np.full((ny, nx), -3.0, np.float32)
+    rgb = np.zeros((ny, nx, 3), np.float32)
     for e, (c, r, _) in enumerate(ells):
-        i0 = int(np.clip((lo[e, 0] - x0) // 2 - 1, 0, nx))
-        i1 = int(np.clip((hi[e, 0] - x0) // 2 + 2, 0, nx))
-        j0 = int(np.clip((lo[e, 1] - y0) // 2 - 1, 0, ny))
-        j1 = int(np.clip((hi[e, 1] - y0) // 2 + 2, 0, ny))
+        i0 = int(np.clip((lo[e, 0] - x0) // _SUB - 2, 0, nx))
+        i1 = int(np.clip((hi[e, 0] - x0) // _SUB + 3, 0, nx))
+        j0 = int(np.clip((lo[e, 1] - y0) // _SUB - 2, 0, ny))
+        j1 = int(np.clip((hi[e, 1] - y0) // _SUB + 3, 0, ny))
         if i1 <= i0 or j1 <= j0:
             continue
         ri = (1.0 / r).astype(np.float32)
@@ -166,34 +189,55 @@ def _cast(ells, lo, hi, pose: HeadPose, grid, smooth: bool) -> np.ndarray:
         a = dd[0] * dd[0] + dd[1] * dd[1] + dd[2] * dd[2]
         b = oo[0] * dd[0] + oo[1] * dd[1] + oo[2] * dd[2]
         disc = b * b - a * float(oo @ oo - 1.0)
-        r_px = float(r.min()) * f_half / max(float(np.linalg.norm(o - c)), 1e-6)
-        cov = np.clip(disc / a * np.float32(r_px * 0.5) + np.float32(0.5), 0.0, 1.0)
+        # 1 - rho^2 = disc / a, rho the ray's closest approach in the unit sphere's frame; times half the radius
+        # in pixels it is the distance to the silhouette near the edge
+        r_px = float(r.min()) * f_sub / max(float(np.linalg.norm(o - c)), 1e-6)
+        delta = disc / a * np.float32(r_px * 0.5)
         s = (-b - np.sqrt(np.maximum(disc, 0.0))) / a
         win = (slice(j0, j1), slice(i0, i1))
-        hit = (cov > 0) & (s < best[win])
+        np.maximum(distance[win], delta, out=distance[win])
+        hit = (disc >= 0) & (s < best[win])
         best[win][hit] = s[hit]
         which[win][hit] = e
-        np.maximum(cover[win], cov, out=cover[win])
+        ring = (disc < 0) & (delta > -_RING) & (s < ring_s[win])
+        ring_s[win][ring] = s[ring]
+        ring_which[win][ring] = e
+    empty = which < 0
+    best[empty] = ring_s[empty]
+    which[empty] = ring_which[empty]
     jj, ii = np.nonzero(which >= 0)
     if len(jj) == 0:
-        return layer
+        return rgb, distance
     d = A @ np.stack([u[ii], v[jj], np.ones(len(ii), np.float32)])  # (3, M)
     p = o[:, None] + d * best[jj, ii]
     idx = which[jj, ii].astype(int)
     centres = np.stack([c for c, _, _ in ells]).astype(np.float32)
     inv_r = np.stack([1.0 / r for _, r, _ in ells]).astype(np.float32)
     if smooth:
-        acc = np.zeros_like(p)
-        total = np.zeros(p.shape[1], np.float32)
-        for e in range(len(ells)):
-            rel = (p - centres[e][:, None]) * inv_r[e][:, None]
+        # soft union: normals of all ellipsoids weighted by exp(-k f), f the implicit function at the hit point;
+        # each ellipsoid counts only near itself (its box, 1.6 times its radii), where its weight is not tiny
+        grid = np.zeros((3, ny, nx), np.float32)
+        grid[:, jj, ii] = p
+        acc = np.zeros_like(grid)
+        total = np.full((ny, nx), 1e-20, np.float32)
+        for e, (c, r, _) in enumerate(ells):
+            if e == 0:
+                win = (slice(None), slice(None))
+            else:
+                near = pose.project(c + 1.6 * r * _UNIT)
+                i0, j0 = np.clip(((near.min(0) - (x0, y0)) // _SUB).astype(int), 0, (nx, ny))
+                i1, j1 = np.clip(((near.max(0) - (x0, y0)) // _SUB).astype(int) + 2, 0, (nx, ny))
+                if i1 <= i0 or j1 <= j0:
+                    continue
+                win = (slice(j0, j1), slice(i0, i1))
+            q = grid[(slice(None), *win)]
+            rel = (q - centres[e][:, None, None]) * inv_r[e][:, None, None]
             f = (rel * rel).sum(0) - 1.0
-            g = rel * inv_r[e][:, None]
-            g /= np.sqrt((g * g).sum(0))
-            wgt = np.exp(-_BLEND * np.maximum(f, 0.0))
-            acc += g * wgt
-            total += wgt
-        normal = acc / total
+            g = rel * inv_r[e][:, None, None]
+            wgt = np.exp(-_BLEND * np.maximum(f, 0.0)) / np.sqrt((g * g).sum(0))
+            acc[(slice(None), *win)] += g * wgt
+            total[win] += wgt
+        normal = acc[:, jj, ii] / total[jj, ii]
     else:
         normal = (p - centres[idx].T) * (inv_r[idx] ** 2).T
     normal /= np.sqrt((normal * normal).sum(0))
@@ -201,15 +245,12 @@ def _cast(ells, lo, hi, pose: HeadPose, grid, smooth: bool) -> np.ndarray:
     shade = _AMBIENT + _DIFFUSE * lambert
     part = np.array([q for _, _, q in ells])[idx]
     shade[part == 2] *= 0.78  # the neck in the head's shadow
-    # hair above the hairline, lower at the sides and back, with a soft edge of about 0.3 cm
-    hair = np.clip(((p[1] - 6.2) + 0.35 * np.clip(-p[2] - 2.0, 0.0, None)) / 0.3 + 0.5, 0.0, 1.0)
+    # hair above the hairline, lower at the sides and back, with a soft edge of about 0.6 cm
+    hair = np.clip(((p[1] - 6.2) + 0.35 * np.clip(-p[2] - 2.0, 0.0, None)) / 0.6 + 0.5, 0.0, 1.0)
     hair[part != 1] = 0.0
     base = SKIN.astype(np.float32) + hair[:, None] * (HAIR - SKIN).astype(np.float32)
-    rgb = shade[:, None] * base
-    layer[jj, ii, :3] = rgb
-    layer[..., 3] = cover
-    layer[..., :3] *= cover[..., None]  # premultiplied alpha
-    return layer
+    rgb[jj, ii] = shade[:, None] * base
+    return rgb, distance
 
 
 def _fix(points: np.ndarray) -> np.ndarray:
