@@ -56,7 +56,7 @@ _CRANIUM = ((0.0, 0.3, -7.6), (7.3, 10.0, 9.0), 1)
 _JAW = ((0.0, -6.6, -4.9), (4.3, 4.3, 6.3), 0)
 _CHIN = ((0.0, -9.4, -0.6), (2.0, 1.5, 1.4), 0)
 _BRIDGE = ((0.0, -1.4, 0.2), (0.62, 2.3, 1.1), 0)
-_TIP = ((0.0, -3.35, 1.5), (0.78, 0.75, 0.9), 0)
+_TIP = ((0.0, -3.3, 1.6), (0.82, 0.7, 0.78), 0)
 _ALA = ((1.1, -4.0, 0.2), (0.6, 0.5, 0.65), 0)
 _CHEEK = ((3.4, -4.6, -4.2), (2.4, 2.3, 2.2), 0)
 _EAR = ((7.0, -2.0, -7.4), (0.9, 2.8, 1.7), 0)
@@ -96,13 +96,10 @@ def _ellipsoids(w: np.ndarray) -> list[tuple[np.ndarray, np.ndarray, int]]:
 
 @lru_cache(maxsize=4)
 def _backdrop(w: int, h: int) -> np.ndarray:
-    """Background wall (vertical gradient) with the performer's shoulders; read-only (H, W, 3) uint8."""
+    """Background wall (vertical gradient); read-only (H, W, 3) uint8."""
     top, bottom = (np.asarray(c, np.float32) for c in _BACKGROUND)
     t = np.linspace(0.0, 1.0, h, dtype=np.float32)[:, None, None]
     img = np.ascontiguousarray(np.broadcast_to(top * (1 - t) + bottom * t, (h, w, 3)).astype(np.uint8))
-    centre = (int(w / 2 * _ONE), int((h * 1.1) * _ONE))
-    axes = (int(w * 0.5 * _ONE), int(h * 0.26 * _ONE))
-    cv2.ellipse(img, centre, axes, 0, 180, 360, _SHIRT, -1, _AA, _SHIFT)
     img.setflags(write=False)
     return img
 
@@ -302,6 +299,10 @@ def paint(w: np.ndarray, ctrl3: np.ndarray, pose: HeadPose, size: tuple[int, int
     width, height = size
     img = _backdrop(width, height).copy()
     _shade_head(img, w, pose)
+    # the shirt over the bottom of the neck: shoulders that stay still while the head moves
+    centre = (int(width / 2 * _ONE), int(height * 1.09 * _ONE))
+    axes = (int(width * 0.54 * _ONE), int(height * 0.22 * _ONE))
+    cv2.ellipse(img, centre, axes, 0, 180, 360, _SHIRT, -1, _AA, _SHIFT)
 
     curves = np.einsum("sj,cjd->csd", _B24, ctrl3)  # (C, 24, 3)
     s = _S24
