@@ -39,7 +39,7 @@ _PINV_ALL = np.linalg.pinv(_B)                         # (4, K)
 
 #: Blob options per rectangle.
 _BLOB = {
-    "brow": BlobConfig(seed_level=0.6, grow_level=0.3, radius=1, close=3),
+    "brow": BlobConfig(seed_level=0.7, grow_level=0.45, radius=1, close=3),
     "eye": BlobConfig(seed_level=0.7, grow_level=0.35, radius=1, close=3),
     "nose": BlobConfig(seed_level=0.7, grow_level=0.4, radius=0, close=0),
     "mouth": BlobConfig(seed_level=0.6, grow_level=0.3, radius=1, close=3),
@@ -62,7 +62,9 @@ class ColorTrackerConfig:
         Frames between re-estimates of Eq. 1's weights by the colour network.
     snake : SnakeConfig
     smoothing : float
-        Speed (face units per frame) at which the curve filter stops smoothing; 0 disables smoothing.
+        Speed (face units per frame) at which the face-frame filter stops smoothing; 0 disables smoothing.
+    curve_smoothing : float
+        The same for the curves in face units.
     min_smoothing : float
         Filter gain for a still curve (1 = no smoothing).
     frame_gain : float
@@ -72,8 +74,9 @@ class ColorTrackerConfig:
     px: float = 48.0
     reestimate_every: int = 15
     snake: SnakeConfig = field(default_factory=lambda: SnakeConfig(iterations=5, samples=10, offset=1.5, step=1.0))
-    smoothing: float = 0.04
-    min_smoothing: float = 0.35
+    smoothing: float = 0.08
+    curve_smoothing: float = 0.12
+    min_smoothing: float = 0.25
     frame_gain: float = 0.5
     max_misses: int = 15
     min_score: float = 0.05
@@ -128,6 +131,7 @@ class ColorTracker:
         self._shift = np.zeros(2)
         self._make_template()
         self._smooth: np.ndarray | None = None
+        self._smooth_frame: FaceFrame | None = None
         self._pose = None
         self._count = 0
 
@@ -164,7 +168,7 @@ class ColorTracker:
             self._frame = None
             return FrameFeatures.lost(len(CURVE_NAMES), len(POINT_NAMES))
         curves, self._frame = result[0], result[1]
-        curves = self._filter(curves)
+        curves = self._filter(curves, result[4])
         return self._features(curves, (w, h))
 
     def _acquire(self, rgb: np.ndarray):
@@ -199,16 +203,27 @@ class ColorTracker:
         """Nothing to release; kept for the Tracker protocol."""
 
     # -- internals -------------------------------------------------------------------------------------
-    def _filter(self, curves: np.ndarray) -> np.ndarray:
+    def _filter(self, curves: np.ndarray, measured: FaceFrame) -> np.ndarray:
+        """Smooth the face frame and the curves in face units, each with a speed-adaptive gain.
+
+        The gain is ``min_smoothing`` for a still frame or curve and rises linearly to 1 (no smoothing) at
+        ``smoothing`` face units per frame, so fast motion is followed at once and small noise is damped.
+        """
         cfg = self.config
+        M = measured.to_image()
+        units = (curves - M[:, 2]) @ np.linalg.inv(M[:, :2]).T
         if cfg.smoothing <= 0 or self._smooth is None:
-            self._smooth = curves
+            self._smooth, self._smooth_frame = units, measured
             return curves
-        unit = self._frame.unit
-        speed = np.abs(curves - self._smooth).max(axis=(1, 2)) / unit
-        a = np.clip(cfg.min_smoothing + (1 - cfg.min_smoothing) * speed / cfg.smoothing, 0.0, 1.0)
-        self._smooth = self._smooth + a[:, None, None] * (curves - self._smooth)
-        return self._smooth
+        prev = self._smooth_frame
+        move = np.hypot(*(measured.origin - prev.origin)) / prev.unit + abs(np.log(measured.unit / prev.unit))
+        a = min(1.0, cfg.min_smoothing + (1 - cfg.min_smoothing) * move / cfg.smoothing)
+        self._smooth_frame = frame = prev.blend(measured, a)
+        speed = np.abs(units - self._smooth).max(axis=(1, 2))
+        g = np.clip(cfg.min_smoothing + (1 - cfg.min_smoothing) * speed / cfg.curve_smoothing, 0.0, 1.0)
+        self._smooth = self._smooth + g[:, None, None] * (units - self._smooth)
+        F = frame.to_image()
+        return self._smooth @ F[:, :2].T + F[:, 2]
 
     def _features(self, curves: np.ndarray, size: tuple[int, int]) -> FrameFeatures:
         from facepuppet.capture.pose import STABLE_FEATURES, estimate_pose, points_in_head, pose_points_from_curves
@@ -232,6 +247,7 @@ class ColorTracker:
             self._weights = self._net.predict(subarea_means(crop, self.config.px))
         self._count += 1
         img = transform(crop, self._weights, self._hue, self.profile.lip_hue.min_saturation)
+        self._raw = img.copy()
         x0, y0, x1, y1 = self._boxes["cheek_left"]
         a0, b0, a1, b1 = self._boxes["cheek_right"]
         skin = np.concatenate([img[y0:y1, x0:x1].ravel(), img[b0:b1, a0:a1].ravel()])
@@ -269,8 +285,8 @@ class ColorTracker:
             if not (0.8 < float(np.hypot(*S_px[:, 0])) < 1.25):
                 eyes, S_px = None, np.eye(2, 3)
         scale = float(np.hypot(*S_px[:, 0]))
-        layout = self._layout_px @ S_px[:, :2].T + S_px[:, 2]
         self._shift = S_px[:, 2] + (S_px[:, :2] - np.eye(2)) @ self._anchors_px[:2].mean(axis=0)
+        layout = self._layout_px @ S_px[:, :2].T + S_px[:, 2]
         curves_px = self._blobs(C, layout, px * scale)
         idx = [_IDX[n] for n, _ in _SNAKE_CURVES]
         if idx:
@@ -282,10 +298,11 @@ class ColorTracker:
         Ainv = cv2.invertAffineTransform(A)
         curves = curves_px @ Ainv[:, :2].T + Ainv[:, 2]
         if eyes is None:
-            return curves, frame, False, score
+            return curves, frame, False, score, frame
         obs = eyes / px + CROP_EXTENT[:2]
         S = similarity_from_points(np.asarray(self.profile.anchors)[:2], obs)
-        return curves, frame.blend(frame.compose(S), gain), True, score
+        measured = frame.compose(S)
+        return curves, frame.blend(measured, gain), True, score, measured
 
     def _face_score(self, C: np.ndarray, S_px: np.ndarray) -> float:
         """Correlation of the feature intensity with the profile's layout drawn as a face (in [-1, 1])."""
@@ -364,7 +381,7 @@ class ColorTracker:
         sk = skin_probability(np.concatenate([crop[y0:y1, x0:x1], crop[b0:b1, a0:a1]], axis=1), self.profile.skin)
         return float(sk.mean()) > 0.3 * 255
 
-    def _box(self, name: str, layout: np.ndarray) -> tuple[int, int, int, int]:
+    def _box(self, name: str, layout: np.ndarray | None) -> tuple[int, int, int, int]:
         """A feature rectangle (crop pixels) moved with the layout's eyes (translation only), clipped."""
         x0, y0, x1, y1 = self._boxes[name]
         d = np.round(self._shift).astype(int)
@@ -397,12 +414,19 @@ class ColorTracker:
                 out[up, 1:3, 1] = np.minimum(mid, out[lo, 1:3, 1] - 0.02 * unit)
         for side in ("right", "left"):
             x0, y0, x1, y1 = self._box(f"brow_{side}", layout)
-            blob = grow_blob(C[y0:y1, x0:x1], _BLOB["brow"])
-            if blob is None:
+            # Brows are often fainter than the eyes and lips the contrast C is scaled to: normalise the raw
+            # intensity of Eq. 1 within the rectangle (forehead skin at the median).
+            raw = self._raw[y0:y1, x0:x1]
+            if raw.size == 0:
+                continue
+            lo, hi = np.percentile(raw, (50.0, 97.0))
+            blob = grow_blob((raw - lo) / max(hi - lo, 1e-6), _BLOB["brow"])
+            if blob is None or blob.box[2] - blob.box[0] < 0.4 * (x1 - x0):
                 continue
             cols, top, bottom = column_profile(blob.mask)
             c = _IDX[f"brow_{side}"]
-            y = self._sample_profile(out[c], cols, (top + bottom) / 2.0 + y0, x0)
+            # The brow's upper edge is sharp; its lower edge may merge with the lid's shadow.
+            y = self._sample_profile(out[c], cols, np.minimum(top + 0.05 * unit, (top + bottom) / 2.0) + y0, x0)
             if y is not None:
                 d = float(np.median(y - _B @ out[c, :, 1]))
                 out[c, :, 1] += np.clip(d, -0.15 * unit, 0.15 * unit)
@@ -436,7 +460,7 @@ class ColorTracker:
             el, er = l0 - lx_l, l1 - lx_r
             ctrl[:, 0] = (xl + el) + (layout[c, :, 0] - l0) * ((xr + er) - (xl + el)) / max(l1 - l0, 1e-6)
             ctrl[0, 1], ctrl[3, 1] = yl + (layout[c, 0, 1] - ly_l), yr + (layout[c, 3, 1] - ly_r)
-        for c, prof, lo_b, hi_b in ((ui, top, -0.15, 0.15), (li, bottom, -0.15, 0.5)):
+        for c, prof, lo_b, hi_b in ((ui, top, -0.15, 0.15), (li, bottom, -0.15, 0.8)):
             ctrl = out[c]
             y = self._sample_profile(ctrl, cols, prof + y0, x0)
             if y is not None:
