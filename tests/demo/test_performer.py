@@ -190,3 +190,15 @@ def test_bad_input_is_refused():
         render_performer(np.zeros(13), size=(10, 10))
     with pytest.raises(ValueError, match="weights"):
         performer_points(np.full(13, np.nan))
+
+
+def test_each_key_is_told_apart_from_the_others_in_the_image_plane():
+    """No key's 2D point displacement is (nearly) a combination of the others with weights in [0, 1]."""
+    from scipy.optimize import lsq_linear
+
+    p0 = performer_points(np.zeros(13))
+    d = np.stack([(performer_points(np.eye(13)[k]) - p0)[:, :2].ravel() for k in range(13)])
+    for k in range(13):
+        others = np.delete(d, k, axis=0)
+        fit = lsq_linear(others.T, d[k], bounds=(0.0, 1.0))
+        assert np.linalg.norm(fit.fun) / np.linalg.norm(d[k]) > 0.2, KEY_NAMES[k]
