@@ -21,7 +21,13 @@ import numpy as np
 from facepuppet.capture.blobs import BlobConfig, column_profile, grow_blob
 from facepuppet.capture.color import contrast, lip_hue_table, transform
 from facepuppet.capture.curves import CURVE_NAMES, POINT_NAMES, bernstein, bezier_points
-from facepuppet.capture.face import CROP_EXTENT, FEATURE_BOXES, FaceFrame, find_face, similarity_from_points
+from facepuppet.capture.face import (
+    CROP_EXTENT,
+    FEATURE_BOXES,
+    FaceFrame,
+    find_face,
+    similarity_from_points,
+)
 from facepuppet.capture.features import FrameFeatures
 from facepuppet.capture.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
 from facepuppet.capture.snakes import LOWER, UPPER, SnakeConfig, minimise_snakes, snake_fields
@@ -81,6 +87,7 @@ class ColorTrackerConfig:
     max_misses: int = 15
     min_score: float = 0.05
     min_acquire_score: float = 0.15
+    min_skinless_score: float = 0.3
 
 
 def _box_px(box, px):
@@ -177,26 +184,30 @@ class ColorTracker:
         self._pose = None
         self._misses = 0
         self._ref = None
-        frame = find_face(rgb, self.profile.skin)
-        if frame is None or frame.unit < 6:
-            return None
         best = None
-        for dy in (0.0, 0.35, -0.35):
-            for s in (1.0, 0.8, 1.25):
-                cand = frame.compose(np.array([[s, 0.0, 0.0], [0.0, s, dy]]))
-                result = None
-                for _ in range(3):
-                    result = self._measure(rgb, cand, follow=False, gain=1.0)
-                    if result is None:
-                        break
-                    cand = result[1]
-                if result is not None and result[2] and (best is None or result[3] > best[3]):
-                    best = result
+        frame = find_face(rgb, self.profile.skin)
+        if frame is not None and frame.unit >= 6:
+            best = self._refine(rgb, [frame.compose(np.array([[s, 0.0, 0.0], [0.0, s, dy]]))
+                                      for dy in (0.0, 0.35, -0.35) for s in (1.0, 0.8, 1.25)])
         if best is None or best[3] < self.config.min_acquire_score:
             return None
         A = best[1].crop_matrix(self.config.px)
         self._ref = self._grey(cv2.warpAffine(rgb, A, self._size, flags=cv2.INTER_LINEAR,
                                               borderMode=cv2.BORDER_REPLICATE))
+        return best
+
+    def _refine(self, rgb: np.ndarray, candidates: list[FaceFrame]):
+        """Pull each candidate face frame onto the eyes; the result that looks most like a face, or None."""
+        best = None
+        for cand in candidates:
+            result = None
+            for _ in range(3):
+                result = self._measure(rgb, cand, follow=False, gain=1.0)
+                if result is None:
+                    break
+                cand = result[1]
+            if result is not None and result[2] and (best is None or result[3] > best[3]):
+                best = result
         return best
 
     def close(self) -> None:
@@ -274,8 +285,7 @@ class ColorTracker:
                 frame = moved
                 A = frame.crop_matrix(px)
                 crop = cv2.warpAffine(rgb, A, self._size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        if not self._skin_ok(crop):
-            return None
+        skin = self._skin_ok(crop)
         C = self.intensity(crop)
         eyes = self._eye_centres(C)
         S_px = np.eye(2, 3)
@@ -294,6 +304,8 @@ class ColorTracker:
             curves_px[idx] = minimise_snakes(curves_px[idx], side, np.array([0.0, -1.0]), snake_fields(C, 5),
                                              self.config.snake, fixed_ends=np.ones(len(idx), bool))
         score = self._face_score(C, S_px)
+        if not skin and score < self.config.min_skinless_score:
+            return None
         # Back to image pixels.
         Ainv = cv2.invertAffineTransform(A)
         curves = curves_px @ Ainv[:, :2].T + Ainv[:, 2]
