@@ -191,9 +191,7 @@ class ColorTracker:
                                       for dy in (0.0, 0.35, -0.35) for s in (1.0, 0.8, 1.25)])
         if best is None or best[3] < self.config.min_acquire_score:
             return None
-        A = best[1].crop_matrix(self.config.px)
-        self._ref = self._grey(cv2.warpAffine(rgb, A, self._size, flags=cv2.INTER_LINEAR,
-                                              borderMode=cv2.BORDER_REPLICATE))
+        self._ref = self._grey(rgb, best[1].crop_matrix(self.config.px))
         return best
 
     def _refine(self, rgb: np.ndarray, candidates: list[FaceFrame]):
@@ -278,13 +276,12 @@ class ColorTracker:
         """
         px = self.config.px
         A = frame.crop_matrix(px)
-        crop = cv2.warpAffine(rgb, A, self._size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         if follow and self._ref is not None:
-            moved = self._follow(crop, A)
+            moved = self._follow(rgb, A)
             if moved is not None and 0.8 < moved.unit / frame.unit < 1.25:
                 frame = moved
                 A = frame.crop_matrix(px)
-                crop = cv2.warpAffine(rgb, A, self._size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        crop = cv2.warpAffine(rgb, A, self._size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         skin = self._skin_ok(crop)
         C = self.intensity(crop)
         eyes = self._eye_centres(C)
@@ -303,7 +300,8 @@ class ColorTracker:
             side = np.array([s for _, s in _SNAKE_CURVES])
             curves_px[idx] = minimise_snakes(curves_px[idx], side, np.array([0.0, -1.0]), snake_fields(C, 5),
                                              self.config.snake, fixed_ends=np.ones(len(idx), bool))
-        score = self._face_score(C, S_px)
+        # How much the crop looks like a face: needed to pick among candidates and when the skin is not seen.
+        score = self._face_score(C, S_px) if (not follow or not skin) else 1.0
         if not skin and score < self.config.min_skinless_score:
             return None
         # Back to image pixels.
@@ -361,16 +359,17 @@ class ColorTracker:
             out[k] = c
         return out
 
-    def _grey(self, crop: np.ndarray) -> np.ndarray:
-        h, w = crop.shape[:2]
-        g = cv2.cvtColor(cv2.resize(crop, (w // 2, h // 2), interpolation=cv2.INTER_AREA), cv2.COLOR_RGB2GRAY)
-        return g.astype(np.float32)
+    def _grey(self, rgb: np.ndarray, A: np.ndarray) -> np.ndarray:
+        """The face crop of crop matrix ``A`` at half resolution, grey, float32 (for the ECC alignment)."""
+        w, h = self._size
+        small = cv2.warpAffine(rgb, A * 0.5, (w // 2, h // 2), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        return cv2.cvtColor(small, cv2.COLOR_RGB2GRAY).astype(np.float32)
 
-    def _follow(self, crop: np.ndarray, A: np.ndarray) -> FaceFrame | None:
-        """The face frame moved by aligning the crop on the reference crop (ECC, affine)."""
+    def _follow(self, rgb: np.ndarray, A: np.ndarray) -> FaceFrame | None:
+        """The face frame moved by aligning the face crop on the reference crop (ECC, affine)."""
         warp = np.eye(2, 3, dtype=np.float32)
         try:
-            _, warp = cv2.findTransformECC(self._ref, self._grey(crop), warp, cv2.MOTION_AFFINE,
+            _, warp = cv2.findTransformECC(self._ref, self._grey(rgb, A), warp, cv2.MOTION_AFFINE,
                                            (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 15, 1e-3), None, 3)
         except cv2.error:
             return None
