@@ -85,7 +85,7 @@ def main(argv: list[str] | None = None) -> int:
 
     d_one = (x[0] - sb).reshape(-1)
     t_ref_one = per_call(lambda: np.linalg.lstsq(V.T, d_one, rcond=None), args.repeat)
-    for method in ("bounded", "lsq", "paper"):
+    for method in ("adaptive", "bounded", "lsq", "paper"):
         m = ExpressionMapper.fit(sb, se, tb, te, method=method)
         t_one = per_call(lambda m=m: m.weights(x[0]), args.repeat)
         rows.append((f"weights, 1 frame ({method})", t_one, "np.linalg.lstsq, 1 frame (unbounded)", t_ref_one,

@@ -44,7 +44,7 @@ def test_default_neutral_is_exactly_zero(pair):
     assert np.array_equal(m.synthesize(np.zeros(M)), pair[2])
 
 
-@pytest.mark.parametrize("method", ["bounded", "lsq", "linear"])
+@pytest.mark.parametrize("method", ["adaptive", "bounded", "lsq", "linear"])
 def test_blends_inside_the_bounds_are_reproduced(method, pair, rng):
     sb, se, tb, te = pair
     m = ExpressionMapper.fit(sb, se, tb, te, method=method)
@@ -155,7 +155,7 @@ def test_attributes(pair):
     assert m.names == tuple(f"k{i}" for i in range(M))
     assert m.example_params.shape == (M, m.feature_matrix.shape[0])
     np.testing.assert_allclose(m.target_examples, pair[3])
-    assert "bounded" in repr(m)
+    assert DEFAULT_METHOD in repr(m)
 
 
 # ----------------------------------------------------------------------------------------- degenerate input
@@ -237,6 +237,8 @@ def test_bad_arrays_name_the_argument(pair, args, match):
         ({"bounds": (0.0, 0.9)}, "bounds must hold 0 and 1"),
         ({"ridge": -1.0}, "ridge must be a finite number >= 0"),
         ({"angle_ridge": float("inf")}, "angle_ridge must be a finite number >= 0"),
+        ({"noise_ridge": -0.5}, "noise_ridge must be a finite number >= 0"),
+        ({"method": "bounded", "noise_ridge": 1.0}, "option 'noise_ridge' does not apply to method 'bounded'"),
         ({"shrinkage": 1.5}, r"shrinkage must lie in \[0, 1\]"),
         ({"threshold": 0.0}, r"threshold must lie in \(0, 1\)"),
         ({"method": "paper", "ridge": 0.1}, "option 'ridge' does not apply to method 'paper'"),
@@ -263,3 +265,32 @@ def test_bad_runtime_input(pair):
         m.synthesize(np.zeros(6))
     with pytest.raises(ValueError, match="weights hold NaN or inf"):
         m.synthesize(np.full(M, np.nan))
+
+
+@pytest.mark.parametrize("c", [0.5, 4.0, 40.0])
+def test_noise_ridge_is_the_bayesian_ridge_with_the_residual_variance(c, pair, rng):
+    """Known answer (Euclidean metric, no angle ridge, interior solution): w = (V Vᵀ + c σ̂² I)⁻¹ V d with
+    σ̂² = ‖d − proj d‖² / (N − M), d a blend of the examples plus motion orthogonal to their span."""
+    sb, se, tb, te = pair
+    Vx = (se - sb).reshape(M, -1)
+    m = ExpressionMapper.fit(sb, se, tb, te, method="adaptive", angle_ridge=0.0, shrinkage=1.0, noise_ridge=c,
+                             bounds=(-np.inf, np.inf))
+    blend = rng.uniform(0.2, 0.8, M)
+    off = rng.normal(size=Vx.shape[1])
+    off -= Vx.T @ np.linalg.lstsq(Vx.T, off, rcond=None)[0]  # orthogonal to the examples' span
+    off *= 0.3 * np.linalg.norm(blend @ Vx) / np.linalg.norm(off)
+    d = blend @ Vx + off
+    sigma2 = off @ off / (Vx.shape[1] - M)
+    expect = np.linalg.solve(Vx @ Vx.T + c * sigma2 * np.eye(M), Vx @ d)
+    np.testing.assert_allclose(m.weights(sb + d.reshape(P, 3)), expect, atol=1e-9)
+    # more noise, more shrinkage; none on the span
+    assert np.linalg.norm(expect) < np.linalg.norm(blend)
+    np.testing.assert_allclose(m.weights(sb + (blend @ Vx).reshape(P, 3)), blend, atol=1e-9)
+
+
+def test_adaptive_damps_noise_at_least_as_much_as_its_angle_ridge_alone(pair, rng):
+    sb, se, tb, te = pair
+    a = ExpressionMapper.fit(sb, se, tb, te)
+    b = ExpressionMapper.fit(sb, se, tb, te, noise_ridge=0.0)
+    x = sb + 0.5 * (se[0] - sb) + rng.normal(scale=0.1, size=(50, P, 3))
+    assert np.all(np.linalg.norm(a.weights(x), axis=1) <= np.linalg.norm(b.weights(x), axis=1) + 1e-12)

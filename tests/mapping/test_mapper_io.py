@@ -125,3 +125,11 @@ def test_failed_save_leaves_no_file(pair, tmp_path, monkeypatch):
     with pytest.raises(zipfile.BadZipFile):
         m.save(tmp_path / "m.npz")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_file_from_before_the_noise_ridge_loads_as_the_same_mapping(pair, rng):
+    m = ExpressionMapper.fit(*pair, method="bounded")
+    arrays = {k: v for k, v in m.to_arrays().items() if k != "solver_noise_ridge"}
+    back = ExpressionMapper.from_arrays(arrays)
+    x = frames(pair, rng)
+    assert np.array_equal(back.weights(x), m.weights(x))

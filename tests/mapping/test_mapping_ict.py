@@ -78,14 +78,16 @@ def test_real_faces_examples_exact(scene):
 
 
 def test_default_beats_the_paper_and_stays_near_least_squares(scene):
-    """On this scene the default beats the paper clearly; against plain bounded least squares it is within
-    a few per cent (its ridge pays off on the shared yardstick's sparser performances, not on this one)."""
+    """On this scene the default (and the older ``bounded``) beat the paper clearly; against plain bounded least
+    squares they are within a few per cent (their ridges pay off on sparser performances and with noise, see
+    benchmarks/eval_mapping_variants.py, not on this dense one)."""
     s = scene
     errors = {meth: error(ExpressionMapper.fit(s["sb"], s["se"], s["tb"], s["te"], method=meth), s)
-              for meth in ("bounded", "lsq", "paper", "linear")}
-    assert errors["bounded"] < 0.97 * errors["paper"], errors
-    assert errors["bounded"] < 0.9 * errors["linear"], errors
-    assert errors["bounded"] < 1.05 * errors["lsq"], errors
+              for meth in ("adaptive", "bounded", "lsq", "paper", "linear")}
+    for meth in ("adaptive", "bounded"):
+        assert errors[meth] < 0.97 * errors["paper"], errors
+        assert errors[meth] < 0.9 * errors["linear"], errors
+        assert errors[meth] < 1.05 * errors["lsq"], errors
 
 
 def test_default_beats_them_with_noise(scene, rng):
@@ -93,6 +95,7 @@ def test_default_beats_them_with_noise(scene, rng):
     iod = np.linalg.norm(s["sb"][19] - s["sb"][28])  # outer eye corners (iBUG 36, 45)
     s["x"] = s["x"] + rng.normal(scale=0.02 * iod, size=s["x"].shape)
     errors = {meth: error(ExpressionMapper.fit(s["sb"], s["se"], s["tb"], s["te"], method=meth), s)
-              for meth in ("bounded", "lsq", "paper")}
-    assert errors["bounded"] < 0.97 * errors["paper"], errors
-    assert errors["bounded"] < 1.05 * errors["lsq"], errors
+              for meth in ("adaptive", "bounded", "lsq", "paper")}
+    for meth in ("adaptive", "bounded"):
+        assert errors[meth] < 0.97 * errors["paper"], errors
+        assert errors[meth] < 1.05 * errors["lsq"], errors

@@ -42,7 +42,8 @@ class BoundedSolver:
 
     Per frame, with displacement vector d (Eq. 13: p = F d), ``H = (P q)(P q)ᵀ``:
 
-    3. ``w = argmin ‖q ⊙ (p − Pᵀ w)‖² + λ(d) Σ_i H_ii w_i²`` subject to ``lo ≤ w ≤ hi``. The ridge is
+    3. ``w = argmin ‖q ⊙ (p − Pᵀ w)‖² + λ(d) Σ_i H_ii w_i² + μ(d) Σ_i w_i²`` subject to ``lo ≤ w ≤ hi``.
+       The ridge λ is
        relative to each example's own strength (scale-free) and grows with how far the frame lies outside
        the examples' span: ``λ(d) = ridge + angle_ridge · sin θ``, θ the angle between d and the span
        (``sin θ = ‖d − Fᵀ F d‖ / ‖d‖``). A frame the examples explain (every blend of them, each example,
@@ -50,6 +51,12 @@ class BoundedSolver:
        the examples cannot express (another expression, tracking noise) has its weights damped, which is
        where least squares would otherwise turn that motion into spurious weights. ``angle_ridge`` = 0.3
        (flat optimum between 0.2 and 0.4 on the trials above; 0 is plain bounded least squares).
+       The noise ridge μ (``noise_ridge`` c, method ``adaptive``) is the Gaussian prior of a Bayesian
+       regression: weights with prior standard deviation τ = 1/√c under per-coordinate noise of variance σ²
+       give ``μ = σ² / τ² = c σ̂²(d)``, with σ² estimated per frame from the part of d the examples cannot
+       express, ``σ̂² = ‖d − Fᵀ F d‖² / (N − M)`` (N coordinates, M examples). Absolute rather than relative
+       to H_ii, it shrinks most the examples that barely move the points, whose weights noise perturbs most;
+       it vanishes on the examples' span, so the guarantees below still hold.
     4. Optional radial correction (``correct``, paper §5.3 in spirit), needed only with a constant
        ``ridge`` > 0, which moves the examples off their exact weights: a cubic B-spline bump centred on
        each example, of radius α_j = distance to the nearest other example or to the neutral face, adds back
@@ -63,8 +70,9 @@ class BoundedSolver:
     kind = "bounded"
 
     def __init__(self, F: np.ndarray, q: np.ndarray, P: np.ndarray, bounds: np.ndarray, ridge: float,
-                 angle_ridge: float, alpha: np.ndarray, C: np.ndarray) -> None:
+                 angle_ridge: float, alpha: np.ndarray, C: np.ndarray, noise_ridge: float = 0.0) -> None:
         self.F, self.q, self.P = F, q, P
+        self.noise_ridge = float(noise_ridge)
         self.lo = np.full(len(P), float(bounds[0]))
         self.hi = np.full(len(P), float(bounds[1]))
         self.ridge, self.angle_ridge = float(ridge), float(angle_ridge)
@@ -93,12 +101,13 @@ class BoundedSolver:
         q /= q.max()
         bounds = np.asarray(opts["bounds"], dtype=float)
         args = (F, q, P, bounds, opts["ridge"], opts["angle_ridge"])
-        solver = cls(*args, np.ones(M), np.zeros((M, M)))
+        noise_ridge = float(opts.get("noise_ridge", 0.0))
+        solver = cls(*args, np.ones(M), np.zeros((M, M)), noise_ridge)
         if opts["correct"]:
             centres = np.vstack([np.zeros((1, P.shape[1])), P])
             alpha = nearest_separation(centres, center_labels(M, names))[1:]
             residual = np.eye(M) - solver._linear(V)[0]
-            solver = cls(*args, alpha, residual)
+            solver = cls(*args, alpha, residual, noise_ridge)
         return solver
 
     def _linear(self, D: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -106,12 +115,16 @@ class BoundedSolver:
         M = len(self.P)
         Z = D @ self.G
         b, p = Z[:, :M], Z[:, M:]
-        if self.angle_ridge == 0.0:
+        if self.angle_ridge == 0.0 and self.noise_ridge == 0.0:
             return solve_box_qp(self.H, b, self.lo, self.hi, self.H_inv), p
         outside = D - p @ self.F
+        out2 = np.einsum("fn,fn->f", outside, outside)
         norm2 = np.einsum("fn,fn->f", D, D)
-        sin = np.sqrt(np.einsum("fn,fn->f", outside, outside) / np.where(norm2 > 0.0, norm2, 1.0))
+        sin = np.sqrt(out2 / np.where(norm2 > 0.0, norm2, 1.0))
         H = self.H[None] + (self.angle_ridge * np.minimum(sin, 1.0))[:, None, None] * self.Hd[None]
+        if self.noise_ridge:
+            sigma2 = out2 / max(D.shape[1] - M, 1)
+            H = H + (self.noise_ridge * sigma2)[:, None, None] * np.eye(M)[None]
         return solve_box_qp(H, b, self.lo, self.hi), p
 
     def __call__(self, D: np.ndarray) -> np.ndarray:
@@ -129,12 +142,13 @@ class BoundedSolver:
     def to_arrays(self) -> dict[str, np.ndarray]:
         return {"F": self.F, "q": self.q, "P": self.P, "bounds": np.array([self.lo[0], self.hi[0]]),
                 "ridge": np.array(self.ridge), "angle_ridge": np.array(self.angle_ridge), "alpha": self.alpha,
-                "C": self.C}
+                "C": self.C, "noise_ridge": np.array(self.noise_ridge)}
 
     @classmethod
     def from_arrays(cls, a: dict[str, np.ndarray]) -> BoundedSolver:
+        # Files written before the noise ridge existed have none (0: the same mapping as then).
         return cls(a["F"], a["q"], a["P"], a["bounds"], float(a["ridge"]), float(a["angle_ridge"]), a["alpha"],
-                   a["C"])
+                   a["C"], float(a.get("noise_ridge", 0.0)))
 
 
 class PaperSolver:
@@ -208,10 +222,14 @@ class Method:
 _INF = float("inf")
 
 METHODS: dict[str, Method] = {
+    "adaptive": Method(BoundedSolver, {"bounds": (0.0, 1.0), "ridge": 0.0, "angle_ridge": 0.2, "shrinkage": 0.7,
+                                       "correct": None, "noise_ridge": 4.0},
+                       "as bounded, plus a Bayesian ridge from the frame's noise variance estimated from the motion "
+                       "the examples cannot express (the default)"),
     "bounded": Method(BoundedSolver, {"bounds": (0.0, 1.0), "ridge": 0.0, "angle_ridge": 0.3, "shrinkage": 0.7,
                                       "correct": None},
                       "bounded least squares in a shrinkage-whitened PCA space, ridge growing with the frame's "
-                      "angle to the examples' span (the default)"),
+                      "angle to the examples' span (the default before 'adaptive')"),
     "ridge": Method(BoundedSolver, {"bounds": (0.0, 1.0), "ridge": 0.1, "angle_ridge": 0.0, "shrinkage": 0.7,
                                     "correct": None},
                     "bounded least squares with a constant ridge, radial correction back to exact examples"),
@@ -223,6 +241,6 @@ METHODS: dict[str, Method] = {
                      "unbounded least squares of the feature displacements (projection on the examples)"),
     "paper": Method(PaperSolver, {}, "the paper's cardinal basis functions (Eqs. 5-13), unbounded"),
 }
-DEFAULT_METHOD = "bounded"
+DEFAULT_METHOD = "adaptive"
 
 SOLVERS = {cls.kind: cls for cls in (BoundedSolver, PaperSolver)}

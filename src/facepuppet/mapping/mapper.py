@@ -36,7 +36,10 @@ class MapperOptions:
         Constant shrinkage of each weight towards zero, relative to the example's strength (``ridge``: 0.1).
     angle_ridge : float, optional
         Shrinkage that grows with the sine of the angle between a frame and the examples' span
-        (``bounded``: 0.3).
+        (``adaptive``: 0.2, ``bounded``: 0.3).
+    noise_ridge : float, optional
+        Inverse prior variance of the weights in the Bayesian ridge that grows with the noise variance
+        estimated per frame (``adaptive``: 4, i.e. prior standard deviation 0.5).
     shrinkage : float in [0, 1], optional
         Share of the identity in the noise covariance of the metric (``bounded``: 0.7; 1 = Euclidean).
     correct : bool, optional
@@ -52,6 +55,7 @@ class MapperOptions:
     bounds: tuple[float, float] | None = None
     ridge: float | None = None
     angle_ridge: float | None = None
+    noise_ridge: float | None = None
     shrinkage: float | None = None
     correct: bool | None = None
     threshold: float = 1e-5
@@ -82,7 +86,7 @@ def _resolve(opts: MapperOptions, m: int) -> dict:
         raise ValueError(f"method must be one of {', '.join(METHODS)}; got {opts.method!r}")
     spec = METHODS[opts.method]
     out = dict(spec.defaults)
-    for key in ("bounds", "ridge", "angle_ridge", "shrinkage", "correct"):
+    for key in ("bounds", "ridge", "angle_ridge", "noise_ridge", "shrinkage", "correct"):
         value = getattr(opts, key)
         if value is None:
             continue
@@ -94,7 +98,7 @@ def _resolve(opts: MapperOptions, m: int) -> dict:
         if math.isnan(lo) or math.isnan(hi) or not (lo <= 0.0 and hi >= 1.0):
             raise ValueError(f"bounds must hold 0 and 1 (neutral and examples), got {out['bounds']}")
         out["bounds"] = (lo, hi)
-    for key in ("ridge", "angle_ridge"):
+    for key in ("ridge", "angle_ridge", "noise_ridge"):
         if key in out and not (0.0 <= float(out[key]) < math.inf):
             raise ValueError(f"{key} must be a finite number >= 0, got {out[key]}")
     if "correct" in out and out["correct"] is None:
@@ -121,10 +125,17 @@ class ExpressionMapper:
 
     Methods (``fit(..., method=NAME)``; the table is ``facepuppet.mapping.METHODS``):
 
-    ``"bounded"`` (default)
-        The most accurate mapping here. Least squares of the frame's feature displacement on the examples'
-        displacements, in the PCA parameter space with a shrinkage-whitened metric (30 % the examples' own
-        covariance, 70 % isotropic), weights kept in [0, 1], and a ridge relative to each example's strength
+    ``"adaptive"`` (default)
+        The most accurate mapping here, over many held-out ICT scenes (``benchmarks/eval_mapping_variants.py``).
+        ``bounded`` (below) with a smaller angle ridge (0.2) plus a Bayesian ridge: the frame's noise variance
+        is estimated from the part of its motion the examples cannot express, and the weights get a Gaussian
+        prior (standard deviation 0.5) weighed against it, so noisy frames shrink most the weights of the
+        examples that barely move the points. Same guarantees as ``bounded``.
+    ``"bounded"``
+        The default before ``adaptive``, kept so that older rigs mean the same. Least squares of the frame's
+        feature displacement on the examples' displacements, in the PCA parameter space with a
+        shrinkage-whitened metric (30 % the examples' own covariance, 70 % isotropic), weights kept in [0, 1],
+        and a ridge relative to each example's strength
         that grows with the sine of the angle between the frame and the examples' span: motion the examples
         cannot express is damped instead of turned into spurious weights.
         Guarantees: neutral → all-zero weights, example i → e_i, every blend of the examples with weights
@@ -202,7 +213,7 @@ class ExpressionMapper:
             The character's key-models T_i.
         **options
             Fields of :class:`MapperOptions` (``method``, ``bounds``, ``ridge``, ``angle_ridge``,
-            ``shrinkage``, ``correct``, ``threshold``, ``names``).
+            ``noise_ridge``, ``shrinkage``, ``correct``, ``threshold``, ``names``).
 
         Returns
         -------
