@@ -40,7 +40,8 @@ _IDX = {n: i for i, n in enumerate(CURVE_NAMES)}
 _K = 12  # boundary samples per curve
 _T = np.linspace(0.0, 1.0, _K)
 _B = bernstein(_T)                                     # (K, 4)
-_PINV_MID = np.linalg.pinv(_B[:, 1:3])                 # (2, K): middle control points with fixed ends
+_MID = _B[:, 1] + _B[:, 2]                             # (K,): how much a common shift of the middle points moves
+_CENTRAL = _MID >= 0.6                                 # samples the middle control points move most
 _PINV_ALL = np.linalg.pinv(_B)                         # (4, K)
 
 #: Blob options per rectangle.
@@ -74,7 +75,7 @@ class ColorTrackerConfig:
     min_smoothing : float
         Filter gain for a still curve (1 = no smoothing).
     frame_gain : float
-        How much of each frame's anchor correction re-aligns the face frame.
+        Gain of the filter on the eyes' correction of the followed face frame (1: no smoothing).
     """
 
     px: float = 48.0
@@ -83,11 +84,21 @@ class ColorTrackerConfig:
     smoothing: float = 0.08
     curve_smoothing: float = 0.12
     min_smoothing: float = 0.25
-    frame_gain: float = 0.5
+    frame_gain: float = 0.3
     max_misses: int = 15
     min_score: float = 0.05
     min_acquire_score: float = 0.15
     min_skinless_score: float = 0.3
+
+
+def _mid_shift(ctrl: np.ndarray, y: np.ndarray) -> float:
+    """The common vertical shift of a curve's middle control points that best moves it onto the profile ``y``.
+
+    One robust number per curve (median over the central samples) instead of two free control points: a lid or
+    lip keeps its shape and opens or closes, and a noisy column cannot bend it.
+    """
+    d = (y - _B @ ctrl[:, 1])[_CENTRAL] / _MID[_CENTRAL]
+    return float(np.median(d))
 
 
 def _box_px(box, px):
@@ -135,6 +146,7 @@ class ColorTracker:
         self._frame: FaceFrame | None = None
         self._ref: np.ndarray | None = None
         self._misses = 0
+        self._corr: np.ndarray | None = None
         self._shift = np.zeros(2)
         self._make_template()
         self._smooth: np.ndarray | None = None
@@ -174,7 +186,7 @@ class ColorTracker:
         if result is None:
             self._frame = None
             return FrameFeatures.lost(len(CURVE_NAMES), len(POINT_NAMES))
-        curves, self._frame = result[0], result[1]
+        curves, self._frame, self._corr = result[0], result[1], result[5]
         curves = self._filter(curves, result[4])
         return self._features(curves, (w, h))
 
@@ -184,6 +196,7 @@ class ColorTracker:
         self._pose = None
         self._misses = 0
         self._ref = None
+        self._corr = None
         best = None
         frame = find_face(rgb, self.profile.skin)
         if frame is not None and frame.unit >= 6:
@@ -271,8 +284,9 @@ class ColorTracker:
         Returns
         -------
         tuple or None
-            (curves (C, 4, 2) image pixels, re-aligned face frame, eyes found, face score), or None when the
-            crop shows no face (no skin on the cheeks).
+            (curves (C, 4, 2) image pixels, re-aligned face frame, eyes found, face score, the same frame,
+            the eyes' smoothed correction (4,)), or None when the crop shows no face (no skin on the cheeks
+            and little likeness to a face).
         """
         px = self.config.px
         A = frame.crop_matrix(px)
@@ -285,12 +299,19 @@ class ColorTracker:
         skin = self._skin_ok(crop)
         C = self.intensity(crop)
         eyes = self._eye_centres(C)
-        S_px = np.eye(2, 3)
+        # The eyes' correction of the followed frame (a similarity in crop pixels, as a, b, tx, ty), smoothed
+        # over frames: the alignment on the whole face is steady, the eye search noisier but unbiased.
+        smooth = follow and self._corr is not None
+        corr = self._corr if smooth else np.array([1.0, 0.0, 0.0, 0.0])
         if eyes is not None:
-            # The eyes re-align the layout in this crop (similarity in crop pixels) and the face frame.
-            S_px = similarity_from_points(self._anchors_px[:2], eyes)
-            if not (0.8 < float(np.hypot(*S_px[:, 0])) < 1.25):
-                eyes, S_px = None, np.eye(2, 3)
+            S_eye = similarity_from_points(self._anchors_px[:2], eyes)
+            if 0.8 < float(np.hypot(*S_eye[:, 0])) < 1.25:
+                v = np.array([S_eye[0, 0], S_eye[1, 0], S_eye[0, 2], S_eye[1, 2]])
+                corr = corr + gain * (v - corr) if smooth else v
+            else:
+                eyes = None
+        a, b, tx, ty = corr
+        S_px = np.array([[a, -b, tx], [b, a, ty]])
         scale = float(np.hypot(*S_px[:, 0]))
         self._shift = S_px[:, 2] + (S_px[:, :2] - np.eye(2)) @ self._anchors_px[:2].mean(axis=0)
         layout = self._layout_px @ S_px[:, :2].T + S_px[:, 2]
@@ -307,12 +328,10 @@ class ColorTracker:
         # Back to image pixels.
         Ainv = cv2.invertAffineTransform(A)
         curves = curves_px @ Ainv[:, :2].T + Ainv[:, 2]
-        if eyes is None:
-            return curves, frame, False, score, frame
-        obs = eyes / px + CROP_EXTENT[:2]
-        S = similarity_from_points(np.asarray(self.profile.anchors)[:2], obs)
+        ext = np.asarray(CROP_EXTENT[:2])
+        S = np.column_stack([S_px[:, :2], -S_px[:, :2] @ ext + S_px[:, 2] / px + ext])     # in face units
         measured = frame.compose(S)
-        return curves, frame.blend(measured, gain), True, score, measured
+        return curves, measured, eyes is not None, score, measured, corr
 
     def _face_score(self, C: np.ndarray, S_px: np.ndarray) -> float:
         """Correlation of the feature intensity with the profile's layout drawn as a face (in [-1, 1])."""
@@ -415,12 +434,10 @@ class ColorTracker:
             up, lo = _IDX[f"eye_{side}_upper"], _IDX[f"eye_{side}_lower"]
             y = self._sample_profile(out[lo], cols, bottom + y0, x0)
             if y is not None:
-                mid = _PINV_MID @ (y - _B[:, 0] * out[lo, 0, 1] - _B[:, 3] * out[lo, 3, 1])
-                out[lo, 1:3, 1] = np.clip(mid, layout[lo, 1:3, 1] - 0.08 * unit, layout[lo, 1:3, 1] + 0.08 * unit)
+                out[lo, 1:3, 1] += np.clip(_mid_shift(out[lo], y), -0.08 * unit, 0.08 * unit)
             y = self._sample_profile(out[up], cols, top + y0, x0)
             if y is not None:
-                mid = _PINV_MID @ (y - _B[:, 0] * out[up, 0, 1] - _B[:, 3] * out[up, 3, 1])
-                mid = np.clip(mid, layout[up, 1:3, 1] - 0.1 * unit, layout[up, 1:3, 1] + 0.2 * unit)
+                mid = out[up, 1:3, 1] + np.clip(_mid_shift(out[up], y), -0.1 * unit, 0.2 * unit)
                 # The upper lid may not cross the lower one.
                 out[up, 1:3, 1] = np.minimum(mid, out[lo, 1:3, 1] - 0.02 * unit)
         for side in ("right", "left"):
@@ -475,7 +492,7 @@ class ColorTracker:
             ctrl = out[c]
             y = self._sample_profile(ctrl, cols, prof + y0, x0)
             if y is not None:
-                m = _PINV_MID @ (y - _B[:, 0] * ctrl[0, 1] - _B[:, 3] * ctrl[3, 1])
+                m = ctrl[1:3, 1] + _mid_shift(ctrl, y)
                 ctrl[1:3, 1] = np.clip(m, layout[c, 1:3, 1] + lo_b * unit, layout[c, 1:3, 1] + hi_b * unit)
         out[li, 1:3, 1] = np.maximum(out[li, 1:3, 1], out[ui, 1:3, 1])
         out[uo, 1:3, 1] = out[ui, 1:3, 1] + (layout[uo, 1:3, 1] - layout[ui, 1:3, 1])
