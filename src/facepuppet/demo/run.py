@@ -304,7 +304,7 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
     anim = animate(files["performance.mp4"], rig, glb=files["animation.glb"], csv=files["animation.csv"],
                    preview=files.get("preview.mp4"), track=track, colors=toy_colors(),
                    config=AnimateConfig(tracker=TrackerOptions(progress=config.progress)))
-    t = step("animate + preview", t)
+    t = step("animate + preview" if config.preview else "animate", t)
     write_overlay_video(files["overlay.mp4"], files["performance.mp4"], track)
     t = step("overlay", t)
 
