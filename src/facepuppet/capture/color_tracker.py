@@ -76,6 +76,15 @@ class ColorTrackerConfig:
         Filter gain for a still curve (1 = no smoothing).
     frame_gain : float
         Gain of the filter on the eyes' correction of the followed face frame (1: no smoothing).
+    max_misses : int
+        Frames in a row without the eyes after which the face is searched afresh.
+    min_score, min_acquire_score, min_skinless_score : float
+        Least likeness to a face (correlation with the drawn layout) to keep following a face, to acquire
+        one, and to accept a crop whose cheeks do not look like skin.
+    check_every : int
+        Frames between checks that the followed crop still looks like a face.
+    min_followed_score : float
+        Least likeness (averaged over checks) to keep following.
     """
 
     px: float = 48.0
@@ -89,6 +98,8 @@ class ColorTrackerConfig:
     min_score: float = 0.05
     min_acquire_score: float = 0.15
     min_skinless_score: float = 0.3
+    check_every: int = 4
+    min_followed_score: float = 0.1
 
 
 def _mid_shift(ctrl: np.ndarray, y: np.ndarray) -> float:
@@ -147,6 +158,9 @@ class ColorTracker:
         self._ref: np.ndarray | None = None
         self._misses = 0
         self._corr: np.ndarray | None = None
+        self._unit_ref = 1.0
+        self._score: float | None = None
+        self._count_tracked = 0
         self._shift = np.zeros(2)
         self._make_template()
         self._smooth: np.ndarray | None = None
@@ -181,12 +195,19 @@ class ColorTracker:
                 self._misses = 0 if result[2] else self._misses + 1
                 if self._misses > self.config.max_misses or result[3] < self.config.min_score:
                     result = None
+                elif not (0.65 < result[1].unit / self._unit_ref < 1.5):
+                    result = None                   # the frame shrank or grew far too fast: start afresh
+                else:
+                    self._unit_ref += 0.05 * (result[1].unit - self._unit_ref)
         if result is None:
             result = self._acquire(rgb)
         if result is None:
             self._frame = None
             return FrameFeatures.lost(len(CURVE_NAMES), len(POINT_NAMES))
         curves, self._frame, self._corr = result[0], result[1], result[5]
+        self._count_tracked += 1
+        if self._count_tracked % self.config.check_every == 0:
+            self._check_score(rgb)
         curves = self._filter(curves, result[4])
         return self._features(curves, (w, h))
 
@@ -205,7 +226,19 @@ class ColorTracker:
         if best is None or best[3] < self.config.min_acquire_score:
             return None
         self._ref = self._grey(rgb, best[1].crop_matrix(self.config.px))
+        self._unit_ref = best[1].unit
+        self._score = None
         return best
+
+    def _check_score(self, rgb: np.ndarray) -> None:
+        """Now and then, how much the followed crop still looks like a face (smoothed); drop the frame if not."""
+        A = self._frame.crop_matrix(self.config.px)
+        crop = cv2.warpAffine(rgb, A, self._size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        score = self._face_score(self.intensity(crop), np.eye(2, 3))
+        self._score = score if self._score is None else 0.5 * (self._score + score)
+        if self._score < self.config.min_followed_score:
+            log.debug("face lost: the followed crop no longer looks like a face (score %.2f)", self._score)
+            self._frame = None
 
     def _refine(self, rgb: np.ndarray, candidates: list[FaceFrame]):
         """Pull each candidate face frame onto the eyes; the result that looks most like a face, or None."""
