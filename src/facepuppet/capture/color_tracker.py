@@ -81,6 +81,8 @@ class ColorTrackerConfig:
     min_score, min_acquire_score, min_skinless_score : float
         Least likeness to a face (correlation with the drawn layout) to keep following a face, to acquire
         one, and to accept a crop whose cheeks do not look like skin.
+    eye_window : (float, float)
+        Half width and half height (face units) of the window the eye centres are searched in.
     check_every : int
         Frames between checks that the followed crop still looks like a face.
     min_followed_score : float
@@ -99,6 +101,7 @@ class ColorTrackerConfig:
     min_acquire_score: float = 0.15
     min_skinless_score: float = 0.3
     check_every: int = 4
+    eye_window: tuple[float, float] = (0.3, 0.14)
     min_followed_score: float = 0.1
 
 
@@ -393,7 +396,7 @@ class ColorTracker:
     def _eye_centres(self, C: np.ndarray) -> np.ndarray | None:
         """Eye centres (2, 2) in crop pixels by a few mean-shift steps of C around the expected anchors."""
         px = self.config.px
-        hw, hh = int(round(0.3 * px)), int(round(0.14 * px))
+        hw, hh = int(round(self.config.eye_window[0] * px)), int(round(self.config.eye_window[1] * px))
         h, w = C.shape
         out = np.zeros((2, 2))
         for k in range(2):
