@@ -43,6 +43,7 @@ _B = bernstein(_T)                                     # (K, 4)
 _MID = _B[:, 1] + _B[:, 2]                             # (K,): how much a common shift of the middle points moves
 _CENTRAL = _MID >= 0.6                                 # samples the middle control points move most
 _PINV_ALL = np.linalg.pinv(_B)                         # (4, K)
+_kernel3 = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3))
 
 #: Blob options per rectangle.
 _BLOB = {
@@ -308,6 +309,9 @@ class ColorTracker:
         self._raw = img.copy()
         x0, y0, x1, y1 = self._boxes["cheek_left"]
         a0, b0, a1, b1 = self._boxes["cheek_right"]
+        self._value = crop.max(axis=2).astype(np.float32)
+        self._skin_value = float(np.median(np.concatenate([self._value[y0:y1, x0:x1].ravel(),
+                                                           self._value[b0:b1, a0:a1].ravel()])))
         skin = np.concatenate([img[y0:y1, x0:x1].ravel(), img[b0:b1, a0:a1].ravel()])
         low = float(np.median(skin))
         e = [self._boxes["eye_left"], self._boxes["eye_right"]]
@@ -498,7 +502,14 @@ class ColorTracker:
         return out
 
     def _mouth(self, C: np.ndarray, layout: np.ndarray, out: np.ndarray, unit: float) -> None:
-        """Mouth corners and opening from the mouth blob; the outer lips keep the layout's lip thickness."""
+        """Lips from the mouth blob (§3.2, Fig. 3): corners and outer lips from its outline, inner lips from
+        the mouth opening inside it.
+
+        Eq. 1 makes the lips and the dark opening both bright, so the blob spans the outer lip outline. The
+        opening is the part of the blob that is dark (low V, as the teeth-less inside of a mouth is) or that
+        the blob leaves out between its top and bottom (teeth: bright and grey). Where no opening is found
+        the lips are closed and both inner curves follow the darkest row between the lips (the lip crease).
+        """
         x0, y0, x1, y1 = self._box("mouth", layout)
         blob = grow_blob(C[y0:y1, x0:x1], _BLOB["mouth"])
         if blob is None:
@@ -524,15 +535,61 @@ class ColorTracker:
             el, er = l0 - lx_l, l1 - lx_r
             ctrl[:, 0] = (xl + el) + (layout[c, :, 0] - l0) * ((xr + er) - (xl + el)) / max(l1 - l0, 1e-6)
             ctrl[0, 1], ctrl[3, 1] = yl + (layout[c, 0, 1] - ly_l), yr + (layout[c, 3, 1] - ly_r)
-        for c, prof, lo_b, hi_b in ((ui, top, -0.15, 0.15), (li, bottom, -0.15, 0.8)):
+        # Outer lips: the blob's outline.
+        for c, prof, lo_b, hi_b in ((uo, top, -0.15, 0.15), (lo, bottom, -0.15, 0.8)):
             ctrl = out[c]
             y = self._sample_profile(ctrl, cols, prof + y0, x0)
             if y is not None:
                 m = ctrl[1:3, 1] + _mid_shift(ctrl, y)
                 ctrl[1:3, 1] = np.clip(m, layout[c, 1:3, 1] + lo_b * unit, layout[c, 1:3, 1] + hi_b * unit)
-        out[li, 1:3, 1] = np.maximum(out[li, 1:3, 1], out[ui, 1:3, 1])
-        out[uo, 1:3, 1] = out[ui, 1:3, 1] + (layout[uo, 1:3, 1] - layout[ui, 1:3, 1])
-        out[lo, 1:3, 1] = out[li, 1:3, 1] + (layout[lo, 1:3, 1] - layout[li, 1:3, 1])
+        # Inner lips: the opening inside the outline.
+        itop, ibot = self._opening(blob.mask, cols, top, bottom, self._value[y0:y1, x0:x1], unit)
+        for c, prof, lo_b, hi_b in ((ui, itop, -0.15, 0.15), (li, ibot, -0.15, 0.8)):
+            ctrl = out[c]
+            y = self._sample_profile(ctrl, cols, prof + y0, x0)
+            if y is not None:
+                m = ctrl[1:3, 1] + _mid_shift(ctrl, y)
+                ctrl[1:3, 1] = np.clip(m, layout[c, 1:3, 1] + lo_b * unit, layout[c, 1:3, 1] + hi_b * unit)
+        out[ui, 1:3, 1] = np.clip(out[ui, 1:3, 1], out[uo, 1:3, 1], out[lo, 1:3, 1])
+        out[li, 1:3, 1] = np.clip(out[li, 1:3, 1], out[ui, 1:3, 1], out[lo, 1:3, 1])
+
+    def _opening(self, mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.ndarray, value: np.ndarray,
+                 unit: float) -> tuple[np.ndarray, np.ndarray]:
+        """Top and bottom of the mouth opening per column of the mouth rectangle (the lip crease if closed).
+
+        Parameters
+        ----------
+        mask : (H, W) bool
+            The lip blob.
+        cols, top, bottom : (W,)
+            Its column profile (:func:`~facepuppet.capture.blobs.column_profile`).
+        value : (H, W) float32
+            HSV value V of the rectangle, 0..255.
+        unit : float
+            Crop pixels per face unit.
+        """
+        h = mask.shape[0]
+        rows = np.arange(h, dtype=np.float32)[:, None]
+        inside = (rows >= top[None] + 1) & (rows < bottom[None] - 1) & cols[None]
+        lips = value[mask]
+        skin = self._skin_value
+        # Dark: well below the lips' and the skin's brightness.
+        thr = 0.5 * min(float(np.percentile(lips, 75)) if lips.size else skin, skin)
+        opening = inside & ((value < thr) | ~mask)
+        opening = cv2.morphologyEx(opening.astype(np.uint8), cv2.MORPH_OPEN, _kernel3)
+        n, labels, stats, _ = cv2.connectedComponentsWithStats(opening, connectivity=8)
+        crease = np.argmin(np.where(inside, value, np.inf), axis=0).astype(np.float32) + 0.5
+        crease = np.where(inside.any(axis=0), crease, (top + bottom) / 2.0)
+        if n < 2:
+            return crease, crease
+        k = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
+        if stats[k, cv2.CC_STAT_AREA] < 0.004 * unit * unit or stats[k, cv2.CC_STAT_WIDTH] < 0.1 * unit:
+            return crease, crease
+        o = labels == k
+        has = o.any(axis=0)
+        otop = o.argmax(axis=0).astype(np.float32)
+        obot = (h - o[::-1].argmax(axis=0)).astype(np.float32)
+        return np.where(has, otop, crease), np.where(has, obot, crease)
 
     @staticmethod
     def _sample_profile(ctrl: np.ndarray, cols: np.ndarray, prof: np.ndarray, x0: int) -> np.ndarray | None:
