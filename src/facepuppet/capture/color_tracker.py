@@ -54,7 +54,7 @@ _BLOB = {
 }
 
 #: Curves refined as snakes, with the side their feature lies on (Fig. 3).
-_SNAKE_CURVES = (("eye_left_upper", UPPER), ("eye_right_upper", UPPER), ("lip_upper_outer", UPPER),
+_SNAKE_CURVES = (("lip_upper_outer", UPPER),
                  ("lip_lower_outer", LOWER))
 
 
@@ -475,7 +475,9 @@ class ColorTracker:
             y = self._sample_profile(out[lo], cols, bottom + y0, x0)
             if y is not None:
                 out[lo, 1:3, 1] += np.clip(_mid_shift(out[lo], y), -0.08 * unit, 0.08 * unit)
-            y = self._sample_profile(out[up], cols, top + y0, x0)
+            # The lid curve is the lower edge of the lash line (the landmark convention), not the blob's top.
+            y = self._sample_profile(out[up], cols, top + self._lash(C[y0:y1, x0:x1], blob.mask, cols, top, unit)
+                                     + y0, x0)
             if y is not None:
                 mid = out[up, 1:3, 1] + np.clip(_mid_shift(out[up], y), -0.1 * unit, 0.2 * unit)
                 # The upper lid may not cross the lower one.
@@ -590,6 +592,20 @@ class ColorTracker:
         otop = o.argmax(axis=0).astype(np.float32)
         obot = (h - o[::-1].argmax(axis=0)).astype(np.float32)
         return np.where(has, otop, crease), np.where(has, obot, crease)
+
+    @staticmethod
+    def _lash(C: np.ndarray, mask: np.ndarray, cols: np.ndarray, top: np.ndarray, unit: float) -> float:
+        """Thickness (rows) of the lash line at the top of an eye blob, where the white of the eye shows below it.
+
+        In each column the bright run from the blob's top is measured; runs shorter than ``0.1 * unit`` are
+        lash line over sclera (longer ones reach into the iris). Their median, or 0 when too few columns show it.
+        """
+        h = mask.shape[0]
+        rows = np.arange(h, dtype=np.float32)[:, None]
+        below = (rows >= top[None]) & ~(mask & (C > 0.5))
+        run = np.where(below.any(axis=0), below.argmax(axis=0) - top, h)
+        short = run[cols & (run > 0) & (run < 0.1 * unit)]
+        return float(np.median(short)) if short.size >= 3 else 0.0
 
     @staticmethod
     def _sample_profile(ctrl: np.ndarray, cols: np.ndarray, prof: np.ndarray, x0: int) -> np.ndarray | None:
