@@ -29,6 +29,7 @@ from facepuppet.capture.face import (
     similarity_from_points,
 )
 from facepuppet.capture.features import FrameFeatures
+from facepuppet.capture.one_euro import OneEuro, OneEuroConfig
 from facepuppet.capture.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
 from facepuppet.capture.snakes import LOWER, UPPER, SnakeConfig, minimise_snakes, snake_fields
 
@@ -69,12 +70,12 @@ class ColorTrackerConfig:
     reestimate_every : int
         Frames between re-estimates of Eq. 1's weights by the colour network.
     snake : SnakeConfig
-    smoothing : float
-        Speed (face units per frame) at which the face-frame filter stops smoothing; 0 disables smoothing.
-    curve_smoothing : float
-        The same for the curves in face units.
-    min_smoothing : float
-        Filter gain for a still curve (1 = no smoothing).
+    smoothing : bool
+        Smooth the face frame and the curves over time (speed-adaptive, :class:`OneEuro`).
+    curve_filter : OneEuroConfig
+        Filter of each curve control point in face units (speeds in face units per second).
+    frame_filter : OneEuroConfig
+        Filter of the face frame (eye midpoint and eye-to-eye vector, in face units).
     frame_gain : float
         Gain of the filter on the eyes' correction of the followed face frame (1: no smoothing).
     max_misses : int
@@ -93,9 +94,9 @@ class ColorTrackerConfig:
     px: float = 48.0
     reestimate_every: int = 15
     snake: SnakeConfig = field(default_factory=lambda: SnakeConfig(iterations=5, samples=10, offset=1.5, step=1.0))
-    smoothing: float = 0.08
-    curve_smoothing: float = 0.12
-    min_smoothing: float = 0.25
+    smoothing: bool = True
+    curve_filter: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=0.3, beta=2.0, d_cutoff=1.0))
+    frame_filter: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=1.0, beta=6.0, d_cutoff=1.0))
     frame_gain: float = 0.3
     max_misses: int = 15
     min_score: float = 0.05
@@ -167,8 +168,9 @@ class ColorTracker:
         self._count_tracked = 0
         self._shift = np.zeros(2)
         self._make_template()
-        self._smooth: np.ndarray | None = None
-        self._smooth_frame: FaceFrame | None = None
+        self._curve_filter = OneEuro(config.curve_filter)
+        self._frame_filter = OneEuro(config.frame_filter)
+        self._last_ms: int | None = None
         self._pose = None
         self._count = 0
 
@@ -212,12 +214,13 @@ class ColorTracker:
         self._count_tracked += 1
         if self._count_tracked % self.config.check_every == 0:
             self._check_score(rgb)
-        curves = self._filter(curves, result[4])
+        curves = self._filter(curves, result[4], timestamp_ms)
         return self._features(curves, (w, h))
 
     def _acquire(self, rgb: np.ndarray):
         """Find the face afresh: skin region and eye holes, then the candidate frame that looks most like a face."""
-        self._smooth = None
+        self._curve_filter.reset()
+        self._frame_filter.reset()
         self._pose = None
         self._misses = 0
         self._ref = None
@@ -262,27 +265,26 @@ class ColorTracker:
         """Nothing to release; kept for the Tracker protocol."""
 
     # -- internals -------------------------------------------------------------------------------------
-    def _filter(self, curves: np.ndarray, measured: FaceFrame) -> np.ndarray:
-        """Smooth the face frame and the curves in face units, each with a speed-adaptive gain.
+    def _filter(self, curves: np.ndarray, measured: FaceFrame, timestamp_ms: int) -> np.ndarray:
+        """Smooth the face frame and the curves (in face units) over time, each with a One-Euro filter.
 
-        The gain is ``min_smoothing`` for a still frame or curve and rises linearly to 1 (no smoothing) at
-        ``smoothing`` face units per frame, so fast motion is followed at once and small noise is damped.
+        Still points are smoothed hard and fast ones followed at once (the cut-off frequency rises with the
+        speed), so small noise is damped without visible lag on fast expressions.
         """
-        cfg = self.config
+        last, self._last_ms = self._last_ms, timestamp_ms
+        if not self.config.smoothing:
+            return curves
+        dt = (timestamp_ms - last) / 1000.0 if last is not None else 0.0
+        if not dt > 0:
+            self._curve_filter.reset()
+            self._frame_filter.reset()
         M = measured.to_image()
         units = (curves - M[:, 2]) @ np.linalg.inv(M[:, :2]).T
-        if cfg.smoothing <= 0 or self._smooth is None:
-            self._smooth, self._smooth_frame = units, measured
-            return curves
-        prev = self._smooth_frame
-        move = np.hypot(*(measured.origin - prev.origin)) / prev.unit + abs(np.log(measured.unit / prev.unit))
-        a = min(1.0, cfg.min_smoothing + (1 - cfg.min_smoothing) * move / cfg.smoothing)
-        self._smooth_frame = frame = prev.blend(measured, a)
-        speed = np.abs(units - self._smooth).max(axis=(1, 2))
-        g = np.clip(cfg.min_smoothing + (1 - cfg.min_smoothing) * speed / cfg.curve_smoothing, 0.0, 1.0)
-        self._smooth = self._smooth + g[:, None, None] * (units - self._smooth)
+        fr = self._frame_filter(np.stack([measured.origin, measured.axis]), dt, measured.unit)
+        frame = FaceFrame(fr[0], fr[1])
+        smooth = self._curve_filter(units, dt)
         F = frame.to_image()
-        return self._smooth @ F[:, :2].T + F[:, 2]
+        return smooth @ F[:, :2].T + F[:, 2]
 
     def _features(self, curves: np.ndarray, size: tuple[int, int]) -> FrameFeatures:
         from facepuppet.capture.pose import STABLE_FEATURES, estimate_pose, points_in_head, pose_points_from_curves

@@ -1,0 +1,86 @@
+"""Speed-adaptive low-pass filtering of tracked values (the One-Euro filter of Casiez et al., 2012).
+
+Each value is smoothed by an exponential filter whose cut-off frequency rises with the value's own (filtered)
+speed: ``fc = min_cutoff + beta * |speed|``. Still values are smoothed hard (small noise removed); moving
+values are followed closely (little lag). Speeds are measured per *group* of components (for a 2D point, the
+length of its velocity), in the units of the values divided by ``scale``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["OneEuroConfig", "OneEuro"]
+
+
+@dataclass(frozen=True)
+class OneEuroConfig:
+    """Options of the One-Euro filter.
+
+    Attributes
+    ----------
+    min_cutoff : float
+        Cut-off frequency (Hz) of a still value.
+    beta : float
+        Rise of the cut-off frequency (Hz) per unit of speed (scaled units per second).
+    d_cutoff : float
+        Cut-off frequency (Hz) of the speed estimate.
+    """
+
+    min_cutoff: float = 1.0
+    beta: float = 5.0
+    d_cutoff: float = 1.0
+
+
+def _alpha(cutoff: np.ndarray | float, dt: float) -> np.ndarray | float:
+    """Gain of an exponential filter with cut-off ``cutoff`` (Hz) at sampling step ``dt`` (s)."""
+    tau = 1.0 / (2.0 * np.pi * cutoff)
+    return 1.0 / (1.0 + tau / dt)
+
+
+class OneEuro:
+    """One-Euro filter over an array of values whose last axis groups the components of one point.
+
+    Parameters
+    ----------
+    config : OneEuroConfig
+    """
+
+    def __init__(self, config: OneEuroConfig = OneEuroConfig()):
+        self.config = config
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the past: the next value passes unchanged."""
+        self._x: np.ndarray | None = None
+        self._dx: np.ndarray | None = None
+
+    def __call__(self, x: np.ndarray, dt: float, scale: float = 1.0) -> np.ndarray:
+        """Filter one sample.
+
+        Parameters
+        ----------
+        x : (..., D) float
+            The values (the same shape at every call).
+        dt : float
+            Seconds since the previous sample (> 0).
+        scale : float
+            Speeds are measured in units of ``x / scale``.
+
+        Returns
+        -------
+        (..., D) float
+            The filtered values.
+        """
+        x = np.asarray(x, dtype=float)
+        if self._x is None or self._x.shape != x.shape or not dt > 0:
+            self._x, self._dx = x.copy(), np.zeros(x.shape[:-1])
+            return x.copy()
+        cfg = self.config
+        speed = np.linalg.norm(x - self._x, axis=-1) / (dt * scale)           # (...,)
+        self._dx = self._dx + _alpha(cfg.d_cutoff, dt) * (speed - self._dx)
+        a = _alpha(cfg.min_cutoff + cfg.beta * self._dx, dt)[..., None]
+        self._x = self._x + a * (x - self._x)
+        return self._x.copy()
