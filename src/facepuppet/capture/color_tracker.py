@@ -32,6 +32,7 @@ from facepuppet.capture.features import FrameFeatures
 from facepuppet.capture.one_euro import OneEuro, OneEuroConfig
 from facepuppet.capture.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
 from facepuppet.capture.snakes import LOWER, UPPER, SnakeConfig, minimise_snakes, snake_fields
+from facepuppet.errors import FacepuppetError
 
 __all__ = ["ColorTrackerConfig", "ColorTracker"]
 
@@ -89,6 +90,12 @@ class ColorTrackerConfig:
         Frames between checks that the followed crop still looks like a face.
     min_followed_score : float
         Least likeness (averaged over checks) to keep following.
+    landmark_acquire : bool
+        When the skin model finds no face (greyscale or colour-graded images, odd light), find it with the
+        landmark backend if mediapipe and its model (``$FACEPUPPET_FACE_LANDMARKER``) are available. Only
+        its eye positions are used, to place the face frame; the curves still come from §3's pipeline.
+    min_landmark_score : float
+        Least likeness to a face of a frame placed by the landmark backend.
     """
 
     px: float = 48.0
@@ -105,6 +112,8 @@ class ColorTrackerConfig:
     check_every: int = 4
     eye_window: tuple[float, float] = (0.3, 0.14)
     min_followed_score: float = 0.1
+    landmark_acquire: bool = True
+    min_landmark_score: float = 0.05
 
 
 def _mid_shift(ctrl: np.ndarray, y: np.ndarray) -> float:
@@ -171,6 +180,8 @@ class ColorTracker:
         self._curve_filter = OneEuro(config.curve_filter)
         self._frame_filter = OneEuro(config.frame_filter)
         self._last_ms: int | None = None
+        self._landmarker = None          # the landmark backend, once needed (False: not available)
+        self._skinless_ok = False
         self._pose = None
         self._count = 0
 
@@ -231,10 +242,50 @@ class ColorTracker:
             best = self._refine(rgb, [frame.compose(np.array([[s, 0.0, 0.0], [0.0, s, dy]]))
                                       for dy in (0.0, 0.35, -0.35) for s in (1.0, 0.8, 1.25)])
         if best is None or best[3] < self.config.min_acquire_score:
+            best = self._landmark_acquire(rgb)
+        if best is None:
             return None
         self._ref = self._grey(rgb, best[1].crop_matrix(self.config.px))
         self._unit_ref = best[1].unit
         self._score = None
+        return best
+
+    def _landmark_acquire(self, rgb: np.ndarray):
+        """The face frame placed on the eyes the landmark backend finds (no skin needed), refined on §3's eyes."""
+        if not self.config.landmark_acquire or self._landmarker is False:
+            return None
+        if self._landmarker is None:
+            try:
+                from facepuppet.capture.landmarks import MediaPipeTracker
+
+                self._landmarker = MediaPipeTracker(running_mode="image")
+            except (FacepuppetError, ImportError, OSError) as e:
+                log.debug("no landmark backend to find faces with: %s", e)
+                self._landmarker = False
+                return None
+        found = self._landmarker.track(rgb, 0)
+        if not found.valid:
+            return None
+        eyes = np.array([np.concatenate([bezier_points(found.curves[_IDX[f"eye_{side}_{lid}"]], 16)
+                                         for lid in ("upper", "lower")]).mean(axis=0) for side in ("right", "left")])
+        S = similarity_from_points(np.asarray(self.profile.anchors)[:2], eyes)
+        frame = FaceFrame(S[:, 2].copy(), S[:, 0].copy())
+        if frame.unit < 6:
+            return None
+        self._skinless_ok = True
+        try:
+            best = self._refine(rgb, [frame])
+            # The landmark backend's eyes are trusted: §3's eye search may only nudge the frame.
+            if best is None or (np.hypot(*(best[1].origin - frame.origin)) > 0.1 * frame.unit
+                                or abs(np.log(best[1].unit / frame.unit)) > 0.1):
+                self._corr = np.array([1.0, 0.0, 0.0, 0.0])
+                best = self._measure(rgb, frame, follow=True, gain=0.0)
+                if best is not None:
+                    best = best[:3] + (self._face_score(self.intensity_last, np.eye(2, 3)),) + best[4:]
+        finally:
+            self._skinless_ok = False
+        if best is None or best[3] < self.config.min_landmark_score:
+            return None
         return best
 
     def _check_score(self, rgb: np.ndarray) -> None:
@@ -262,7 +313,10 @@ class ColorTracker:
         return best
 
     def close(self) -> None:
-        """Nothing to release; kept for the Tracker protocol."""
+        """Release the landmark backend if it was used."""
+        if self._landmarker:
+            self._landmarker.close()
+        self._landmarker = None
 
     # -- internals -------------------------------------------------------------------------------------
     def _filter(self, curves: np.ndarray, measured: FaceFrame, timestamp_ms: int) -> np.ndarray:
@@ -318,7 +372,8 @@ class ColorTracker:
         low = float(np.median(skin))
         e = [self._boxes["eye_left"], self._boxes["eye_right"]]
         feat = max(float(img[b[1]:b[3], b[0]:b[2]].max()) for b in e)
-        return contrast(img, low + 0.15 * (feat - low), low + 0.75 * (feat - low), out=img)
+        self.intensity_last = contrast(img, low + 0.15 * (feat - low), low + 0.75 * (feat - low), out=img)
+        return self.intensity_last
 
     def _measure(self, rgb: np.ndarray, frame: FaceFrame, *, follow: bool, gain: float):
         """Track one frame in the face frame ``frame``.
@@ -365,7 +420,7 @@ class ColorTracker:
                                              self.config.snake, fixed_ends=np.ones(len(idx), bool))
         # How much the crop looks like a face: needed to pick among candidates and when the skin is not seen.
         score = self._face_score(C, S_px) if (not follow or not skin) else 1.0
-        if not skin and score < self.config.min_skinless_score:
+        if not skin and score < self.config.min_skinless_score and not self._skinless_ok:
             return None
         # Back to image pixels.
         Ainv = cv2.invertAffineTransform(A)
