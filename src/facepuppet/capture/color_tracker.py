@@ -95,7 +95,7 @@ class ColorTrackerConfig:
         landmark backend if mediapipe and its model (``$FACEPUPPET_FACE_LANDMARKER``) are available. Only
         its eye positions are used, to place the face frame; the curves still come from §3's pipeline.
     min_landmark_score : float
-        Least likeness to a face of a frame placed by the landmark backend.
+        Least likeness to a face of a frame placed by the landmark backend (-1: trust the backend).
     """
 
     px: float = 48.0
@@ -113,7 +113,7 @@ class ColorTrackerConfig:
     eye_window: tuple[float, float] = (0.3, 0.14)
     min_followed_score: float = 0.1
     landmark_acquire: bool = True
-    min_landmark_score: float = 0.05
+    min_landmark_score: float = -1.0
 
 
 def _mid_shift(ctrl: np.ndarray, y: np.ndarray) -> float:
@@ -182,6 +182,7 @@ class ColorTracker:
         self._last_ms: int | None = None
         self._landmarker = None          # the landmark backend, once needed (False: not available)
         self._skinless_ok = False
+        self._mouth_offset = np.zeros(2)  # crop pixels the mouth sits off the layout (set by the landmark backend)
         self._pose = None
         self._count = 0
 
@@ -233,6 +234,7 @@ class ColorTracker:
         self._curve_filter.reset()
         self._frame_filter.reset()
         self._pose = None
+        self._mouth_offset = np.zeros(2)
         self._misses = 0
         self._ref = None
         self._corr = None
@@ -272,6 +274,13 @@ class ColorTracker:
         frame = FaceFrame(S[:, 2].copy(), S[:, 0].copy())
         if frame.unit < 6:
             return None
+        # The mouth rectangle goes where the backend's mouth is (faces differ most in the eye-mouth distance).
+        lips = [_IDX[n] for n in CURVE_NAMES if n.startswith("lip_")]
+        M = frame.to_image()
+        seen = (np.concatenate([bezier_points(c, 16) for c in found.curves[lips]]).mean(axis=0) - M[:, 2]) \
+            @ np.linalg.inv(M[:, :2]).T
+        drawn = np.concatenate([bezier_points(c, 16) for c in np.asarray(self.profile.layout)[lips]]).mean(axis=0)
+        self._mouth_offset = np.clip(seen - drawn, -0.3, 0.3) * self.config.px
         self._skinless_ok = True
         try:
             best = self._refine(rgb, [frame])
@@ -511,7 +520,7 @@ class ColorTracker:
     def _box(self, name: str, layout: np.ndarray | None) -> tuple[int, int, int, int]:
         """A feature rectangle (crop pixels) moved with the layout's eyes (translation only), clipped."""
         x0, y0, x1, y1 = self._boxes[name]
-        d = np.round(self._shift).astype(int)
+        d = np.round(self._shift + (self._mouth_offset if name == "mouth" else 0.0)).astype(int)
         h, w = self._size[1], self._size[0]
         return (min(max(x0 + d[0], 0), w), min(max(y0 + d[1], 0), h),
                 min(max(x1 + d[0], 0), w), min(max(y1 + d[1], 0), h))
@@ -570,6 +579,9 @@ class ColorTracker:
         the lips are closed and both inner curves follow the darkest row between the lips (the lip crease).
         """
         x0, y0, x1, y1 = self._box("mouth", layout)
+        if self._mouth_offset.any():
+            layout = layout.copy()
+            layout[[_IDX[n] for n in CURVE_NAMES if n.startswith("lip_")]] += self._mouth_offset
         blob = grow_blob(C[y0:y1, x0:x1], _BLOB["mouth"])
         if blob is None:
             return
