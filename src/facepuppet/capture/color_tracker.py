@@ -94,6 +94,8 @@ class ColorTrackerConfig:
         When the skin model finds no face (greyscale or colour-graded images, odd light), find it with the
         landmark backend if mediapipe and its model (``$FACEPUPPET_FACE_LANDMARKER``) are available. Only
         its eye positions are used, to place the face frame; the curves still come from §3's pipeline.
+    landmark_model : str or None
+        Path of the landmark backend's model; default ``$FACEPUPPET_FACE_LANDMARKER``.
     min_landmark_score : float
         Least likeness to a face of a frame placed by the landmark backend (-1: trust the backend).
     """
@@ -113,6 +115,7 @@ class ColorTrackerConfig:
     eye_window: tuple[float, float] = (0.3, 0.14)
     min_followed_score: float = 0.1
     landmark_acquire: bool = True
+    landmark_model: str | None = None
     min_landmark_score: float = -1.0
 
 
@@ -260,7 +263,7 @@ class ColorTracker:
             try:
                 from facepuppet.capture.landmarks import MediaPipeTracker
 
-                self._landmarker = MediaPipeTracker(running_mode="image")
+                self._landmarker = MediaPipeTracker(self.config.landmark_model, running_mode="image")
             except (FacepuppetError, ImportError, OSError) as e:
                 log.debug("no landmark backend to find faces with: %s", e)
                 self._landmarker = False
