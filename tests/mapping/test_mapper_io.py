@@ -102,10 +102,10 @@ def test_bad_files_name_the_file(pair, tmp_path):
     np.savez(pickled, format=np.array([{"a": 1}], dtype=object))
 
     cases = {
-        truncated: "not a readable mapper file", garbage: "not a readable mapper file",
-        empty: "not a readable mapper file", other: "not an ExpressionMapper",
+        truncated: "cannot read mapper file", garbage: "cannot read mapper file",
+        empty: "cannot read mapper file", other: "not an ExpressionMapper",
         future: "newer facepuppet", wrong_kind: "not an ExpressionMapper", damaged: "damaged",
-        shapes: "inconsistent shapes", pickled: "not a readable mapper file",
+        shapes: "inconsistent shapes", pickled: "cannot read mapper file",
         tmp_path / "missing.npz": "no such file",
     }
     for path, match in cases.items():

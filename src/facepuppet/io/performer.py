@@ -21,14 +21,13 @@ Names are unique, non-empty and compared exactly (case-sensitive). All values ar
 from __future__ import annotations
 
 import os
-import zipfile
-import zlib
 from dataclasses import dataclass
 
 import numpy as np
 
 from facepuppet.errors import FacepuppetError
 from facepuppet.io.atomic import atomic_path
+from facepuppet.io.npz import check_format, read_npz
 
 __all__ = ["Performer", "save_performer", "load_performer", "PERFORMER_FORMAT", "PERFORMER_VERSION"]
 
@@ -91,23 +90,8 @@ def save_performer(path: str | os.PathLike, performer: Performer) -> None:
 
 def load_performer(path: str | os.PathLike) -> Performer:
     """Read a key expressions file; anything wrong with it raises FacepuppetError naming the file."""
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            arrays = {k: data[k] for k in data.files}
-    except FileNotFoundError as e:
-        raise FacepuppetError(f"{path}: no such file") from e
-    except (OSError, ValueError, zipfile.BadZipFile, zlib.error, EOFError) as e:
-        raise FacepuppetError(f"{path}: cannot read key expressions file ({e})") from e
-    if not isinstance(arrays, dict) or str(arrays.get("format", "")) != PERFORMER_FORMAT:
-        raise FacepuppetError(f"{path}: not a facepuppet key expressions file (format is not "
-                              f"{PERFORMER_FORMAT!r})")
-    try:
-        version = int(arrays["version"])
-    except (KeyError, TypeError, ValueError) as e:
-        raise FacepuppetError(f"{path}: key expressions file has no valid version") from e
-    if version > PERFORMER_VERSION:
-        raise FacepuppetError(f"{path}: key expressions file version {version} is newer than this facepuppet "
-                              f"reads ({PERFORMER_VERSION}); upgrade facepuppet")
+    arrays = read_npz(path, "key expressions file")
+    check_format(arrays, path, "key expressions file", PERFORMER_FORMAT, PERFORMER_VERSION)
     missing = [k for k in ("neutral", "examples", "names") if k not in arrays]
     if missing:
         raise FacepuppetError(f"{path}: key expressions file lacks {', '.join(missing)}")

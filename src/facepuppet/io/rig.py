@@ -25,8 +25,6 @@ from __future__ import annotations
 
 import inspect
 import os
-import zipfile
-import zlib
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -36,6 +34,7 @@ import numpy as np
 from facepuppet.errors import FacepuppetError
 from facepuppet.io.atomic import atomic_path
 from facepuppet.io.character import Character
+from facepuppet.io.npz import check_format, read_npz
 from facepuppet.io.performer import Performer
 
 __all__ = ["Rig", "Pairing", "pair_by_name", "fit_rig", "save_rig", "load_rig", "RIG_FORMAT", "RIG_VERSION"]
@@ -185,22 +184,8 @@ def save_rig(path: str | os.PathLike, rig: Rig) -> None:
 
 def load_rig(path: str | os.PathLike) -> Rig:
     """Read a rig file; a missing, corrupt, truncated or newer-version file raises FacepuppetError naming it."""
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            arrays = {k: data[k] for k in data.files}
-    except FileNotFoundError as e:
-        raise FacepuppetError(f"{path}: no such file") from e
-    except (OSError, ValueError, zipfile.BadZipFile, zlib.error, EOFError) as e:
-        raise FacepuppetError(f"{path}: cannot read rig file ({e})") from e
-    if not isinstance(arrays, dict) or str(arrays.get("format", "")) != RIG_FORMAT:
-        raise FacepuppetError(f"{path}: not a facepuppet rig file")
-    try:
-        version = int(arrays["version"])
-    except (KeyError, TypeError, ValueError) as e:
-        raise FacepuppetError(f"{path}: rig file has no valid version") from e
-    if version > RIG_VERSION:
-        raise FacepuppetError(f"{path}: rig file version {version} is newer than this facepuppet reads "
-                              f"({RIG_VERSION}); upgrade facepuppet")
+    arrays = read_npz(path, "rig file")
+    check_format(arrays, path, "rig file", RIG_FORMAT, RIG_VERSION)
     needed = [_CHAR + k for k in ("neutral", "targets", "names", "name")] + ["names", "point_names"]
     missing = [k for k in needed if k not in arrays]
     if missing:

@@ -9,13 +9,13 @@ coordinates. Frames where no face was tracked have ``valid = False`` and NaN in 
 from __future__ import annotations
 
 import os
-import zipfile
 from dataclasses import dataclass
 
 import numpy as np
 
 from facepuppet.errors import FacepuppetError
 from facepuppet.io.atomic import atomic_path
+from facepuppet.io.npz import read_npz
 
 __all__ = ["Track", "save_track", "load_track", "TRACK_KEYS"]
 
@@ -95,16 +95,10 @@ def save_track(path: str | os.PathLike, track: Track) -> None:
 
 def load_track(path: str | os.PathLike) -> Track:
     """Read a track file; a missing, corrupt or incomplete file raises FacepuppetError naming it."""
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            missing = [k for k in TRACK_KEYS if k not in data.files]
-            if missing:
-                raise FacepuppetError(f"{path}: not a track file (missing {', '.join(missing)})")
-            arrays = {k: data[k] for k in data.files}
-    except FacepuppetError:
-        raise
-    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as e:
-        raise FacepuppetError(f"{path}: cannot read track file ({e})") from e
+    arrays = read_npz(path, "track file")
+    missing = [k for k in TRACK_KEYS if k not in arrays]
+    if missing:
+        raise FacepuppetError(f"{path}: not a track file (missing {', '.join(missing)})")
     extras = {k: v for k, v in arrays.items() if k not in TRACK_KEYS}
     try:
         return Track(

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 import os
-import zipfile
 from dataclasses import dataclass
 
 import numpy as np
@@ -399,14 +398,10 @@ class ExpressionMapper:
         FacepuppetError
             Missing, corrupt, truncated, wrong-kind or future-version file; the message names the file.
         """
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                arrays = {k: data[k] for k in data.files}
-        except FileNotFoundError as e:
-            raise FacepuppetError(f"{path}: no such file") from e
-        except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError) as e:
-            raise FacepuppetError(f"{path}: not a readable mapper file ({e})") from e
-        if not isinstance(arrays, dict) or not arrays:
+        from facepuppet.io.npz import read_npz
+
+        arrays = read_npz(path, "mapper file")
+        if not arrays:
             raise FacepuppetError(f"{path}: not a mapper file")
         try:
             return cls.from_arrays(arrays)
