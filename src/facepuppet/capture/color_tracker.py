@@ -125,8 +125,9 @@ def _mid_shift(ctrl: np.ndarray, y: np.ndarray) -> float:
     One robust number per curve (median over the central samples) instead of two free control points: a lid or
     lip keeps its shape and opens or closes, and a noisy column cannot bend it.
     """
-    d = (y - _B @ ctrl[:, 1])[_CENTRAL] / _MID[_CENTRAL]
-    return float(np.median(d))
+    d = np.sort((y - _B @ ctrl[:, 1])[_CENTRAL] / _MID[_CENTRAL])
+    n = len(d)
+    return float(0.5 * (d[(n - 1) // 2] + d[n // 2]))
 
 
 def _box_px(box, px):
@@ -377,9 +378,7 @@ class ColorTracker:
         self._raw = img.copy()
         x0, y0, x1, y1 = self._boxes["cheek_left"]
         a0, b0, a1, b1 = self._boxes["cheek_right"]
-        self._value = crop.max(axis=2).astype(np.float32)
-        self._skin_value = float(np.median(np.concatenate([self._value[y0:y1, x0:x1].ravel(),
-                                                           self._value[b0:b1, a0:a1].ravel()])))
+        self._crop = crop
         skin = np.concatenate([img[y0:y1, x0:x1].ravel(), img[b0:b1, a0:a1].ravel()])
         low = float(np.median(skin))
         e = [self._boxes["eye_left"], self._boxes["eye_right"]]
@@ -617,7 +616,7 @@ class ColorTracker:
                 m = ctrl[1:3, 1] + _mid_shift(ctrl, y)
                 ctrl[1:3, 1] = np.clip(m, layout[c, 1:3, 1] + lo_b * unit, layout[c, 1:3, 1] + hi_b * unit)
         # Inner lips: the opening inside the outline.
-        itop, ibot = self._opening(blob.mask, cols, top, bottom, self._value[y0:y1, x0:x1], unit)
+        itop, ibot = self._opening(blob.mask, cols, top, bottom, self._crop_value(x0, y0, x1, y1), unit)
         for c, prof, lo_b, hi_b in ((ui, itop, -0.15, 0.15), (li, ibot, -0.15, 0.8)):
             ctrl = out[c]
             y = self._sample_profile(ctrl, cols, prof + y0, x0)
@@ -646,7 +645,10 @@ class ColorTracker:
         rows = np.arange(h, dtype=np.float32)[:, None]
         inside = (rows >= top[None] + 1) & (rows < bottom[None] - 1) & cols[None]
         lips = value[mask]
-        skin = self._skin_value
+        x0, y0, x1, y1 = self._boxes["cheek_left"]
+        a0, b0, a1, b1 = self._boxes["cheek_right"]
+        skin = float(np.median(np.concatenate([self._crop_value(x0, y0, x1, y1).ravel(),
+                                               self._crop_value(a0, b0, a1, b1).ravel()])))
         # Dark: well below the lips' and the skin's brightness.
         thr = 0.5 * min(float(np.percentile(lips, 75)) if lips.size else skin, skin)
         opening = inside & ((value < thr) | ~mask)
@@ -664,6 +666,11 @@ class ColorTracker:
         otop = o.argmax(axis=0).astype(np.float32)
         obot = (h - o[::-1].argmax(axis=0)).astype(np.float32)
         return np.where(has, otop, crease), np.where(has, obot, crease)
+
+    def _crop_value(self, x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
+        """HSV value V (0..255, float32) of a rectangle of the current crop."""
+        r = self._crop[y0:y1, x0:x1]
+        return cv2.max(cv2.max(r[..., 0], r[..., 1]), r[..., 2]).astype(np.float32)
 
     @staticmethod
     def _lash(C: np.ndarray, mask: np.ndarray, cols: np.ndarray, top: np.ndarray, unit: float) -> float:
