@@ -104,7 +104,7 @@ class ColorTrackerConfig:
     reestimate_every: int = 15
     snake: SnakeConfig = field(default_factory=lambda: SnakeConfig(iterations=5, samples=10, offset=1.5, step=1.0))
     smoothing: bool = True
-    curve_filter: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=0.3, beta=2.0, d_cutoff=1.0))
+    curve_filter: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=0.3, beta=1.5, d_cutoff=1.0))
     frame_filter: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=1.0, beta=6.0, d_cutoff=1.0))
     frame_gain: float = 0.3
     max_misses: int = 15
