@@ -83,3 +83,13 @@ def test_column_profile_of_a_triangle():
     np.testing.assert_array_equal(cols, [True, True, True, True, False, False])
     np.testing.assert_array_equal(top[:4], [2, 3, 4, 5])
     np.testing.assert_array_equal(bottom[:4], [8, 8, 8, 8])
+
+
+def test_near_prefers_the_region_where_the_feature_is_expected():
+    img = np.zeros((40, 60), np.float32)
+    img[5:10, 20:40] = 1.0          # the feature: 100 pixels near (30, 7)
+    img[25:40, 0:20] = 1.0          # a larger shadow in a corner: 300 pixels
+    assert grow_blob(img).area == 300
+    blob = grow_blob(img, near=(30.0, 7.0, 8.0))
+    assert blob.area == 100
+    np.testing.assert_allclose(blob.centroid, (29.5, 7.0))

@@ -68,7 +68,8 @@ def _kernel(size: int) -> np.ndarray:
     return k
 
 
-def grow_blob(intensity: np.ndarray, config: BlobConfig = BlobConfig(), min_area: int = 3) -> Blob | None:
+def grow_blob(intensity: np.ndarray, config: BlobConfig = BlobConfig(), min_area: int = 3,
+              near: tuple[float, float, float] | None = None) -> Blob | None:
     """Grow blobs from seeds and keep the largest (§3.2).
 
     Pixels above ``seed_level`` are seeds; a blob is every pixel above ``grow_level`` reachable from a seed
@@ -83,6 +84,10 @@ def grow_blob(intensity: np.ndarray, config: BlobConfig = BlobConfig(), min_area
     config : BlobConfig
     min_area : int
         Smaller regions do not count.
+    near : (x, y, r), optional
+        Prefer regions near (x, y) (rectangle pixels): each region's area is weighted by ``1 / (1 + (d / r)²)``
+        with ``d`` the distance of its centroid, so a large region far from where the feature is expected
+        (a shadow at the rectangle's edge) loses to the feature.
 
     Returns
     -------
@@ -103,7 +108,11 @@ def grow_blob(intensity: np.ndarray, config: BlobConfig = BlobConfig(), min_area
     seeded[labels[intensity > config.seed_level]] = True
     seeded[0] = False
     areas = np.where(seeded, stats[:, cv2.CC_STAT_AREA], 0)
-    k = int(np.argmax(areas))
+    if near is None:
+        k = int(np.argmax(areas))
+    else:
+        d2 = ((cents - np.asarray(near[:2])) ** 2).sum(axis=1) / max(near[2], 1e-6) ** 2
+        k = int(np.argmax(np.where(areas >= min_area, areas / (1.0 + d2), -1.0)))
     if areas[k] < min_area:
         return None
     x, y, w, h = stats[k, :4]

@@ -584,7 +584,8 @@ class ColorTracker:
         if self._mouth_offset.any():
             layout = layout.copy()
             layout[[_IDX[n] for n in CURVE_NAMES if n.startswith("lip_")]] += self._mouth_offset
-        blob = grow_blob(C[y0:y1, x0:x1], _BLOB["mouth"])
+        centre = layout[[_IDX["lip_upper_inner"], _IDX["lip_lower_inner"]]].reshape(-1, 2).mean(axis=0)
+        blob = grow_blob(C[y0:y1, x0:x1], _BLOB["mouth"], near=(centre[0] - x0, centre[1] - y0, 0.3 * unit))
         if blob is None:
             return
         cols, top, bottom = column_profile(blob.mask)
