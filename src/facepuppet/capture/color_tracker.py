@@ -535,7 +535,8 @@ class ColorTracker:
         out = layout.copy()
         for side in ("right", "left"):
             x0, y0, x1, y1 = self._box(f"eye_{side}", layout)
-            blob = grow_blob(C[y0:y1, x0:x1], _BLOB["eye"])
+            e = layout[[_IDX[f"eye_{side}_upper"], _IDX[f"eye_{side}_lower"]]].reshape(-1, 2).mean(axis=0)
+            blob = grow_blob(C[y0:y1, x0:x1], _BLOB["eye"], near=(e[0] - x0, e[1] - y0, 0.25 * unit))
             if blob is None:
                 continue
             cols, top, bottom = column_profile(blob.mask)
@@ -558,7 +559,8 @@ class ColorTracker:
             if raw.size == 0:
                 continue
             lo, hi = np.percentile(raw, (50.0, 97.0))
-            blob = grow_blob((raw - lo) / max(hi - lo, 1e-6), _BLOB["brow"])
+            e = layout[_IDX[f"brow_{side}"]].mean(axis=0)
+            blob = grow_blob((raw - lo) / max(hi - lo, 1e-6), _BLOB["brow"], near=(e[0] - x0, e[1] - y0, 0.3 * unit))
             if blob is None or blob.box[2] - blob.box[0] < 0.4 * (x1 - x0):
                 continue
             cols, top, bottom = column_profile(blob.mask)
