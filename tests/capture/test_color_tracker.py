@@ -138,3 +138,29 @@ def test_still_without_skin_colour_found_with_landmark_backend(assets, face_land
         q = bezier_points(f.curves[_IDX[curve]], 64)
         d = np.linalg.norm(pts[idx][:, None] - q[None], axis=-1).min(axis=1).mean() / span
         assert d < 0.08, (curve, d)
+
+
+def test_inner_lips_follow_the_mouth_opening_on_the_digital_performer():
+    """Jaw open on the demo's performer (true curves known): the inner lips trace the dark opening inside the
+    lips, the outer lips the lips' outline (Fig. 3), each nearer its own true curve than the other one."""
+    from facepuppet.demo.performer import performer_curves, render_performer
+    from facepuppet.demo.script import KEY_NAMES
+
+    w = np.zeros(len(KEY_NAMES))
+    w[KEY_NAMES.index("jawOpen")] = 1.0
+    frame = render_performer(w)
+    true = performer_curves(w, None, (480, 480))
+    tracker = ColorTracker()
+    for i in range(3):
+        f = tracker.track(frame, 33 * i)
+    assert f.valid
+    span = np.linalg.norm(true[_IDX["eye_left_upper"], 3] - true[_IDX["eye_right_upper"], 3])
+
+    def dist(a, b):
+        return np.linalg.norm(bezier_points(f.curves[_IDX[a]], 16) - bezier_points(true[_IDX[b]], 16), axis=1).mean()
+
+    for lip in ("upper", "lower"):
+        inner, outer = f"lip_{lip}_inner", f"lip_{lip}_outer"
+        assert dist(inner, inner) < 0.04 * span
+        assert dist(outer, outer) < 0.05 * span
+        assert dist(inner, inner) < 0.5 * dist(inner, outer)
