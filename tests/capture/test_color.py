@@ -72,3 +72,12 @@ def test_contrast_in_place():
     x = np.linspace(0, 1, 11, dtype=np.float32)[None]
     out = contrast(x, 0.1, 0.9, out=x)
     assert out is x
+
+
+def test_greyscale_image_leaves_only_the_value_terms():
+    """On a grey image M = 0 and G(H) = 0 (no saturation), so Eq. 1 is w2 K + w3 V = w2 + (w3 - w2) V."""
+    v = np.arange(0, 256, 5, dtype=np.uint8)
+    grey = np.repeat(np.tile(v, (4, 1))[..., None], 3, axis=2)
+    w = np.array([0.9, 0.2, -0.8, 0.5], dtype=np.float32)
+    out = transform(grey, w, lip_hue_table(LipHue()))
+    np.testing.assert_allclose(out, w[1] + (w[2] - w[1]) * np.tile(v, (4, 1)) / 255.0, atol=1e-5)
