@@ -94,6 +94,8 @@ class ColorTrackerConfig:
         When the skin model finds no face (greyscale or colour-graded images, odd light), find it with the
         landmark backend if mediapipe and its model (``$FACEPUPPET_FACE_LANDMARKER``) are available. Only
         its eye positions are used, to place the face frame; the curves still come from §3's pipeline.
+    landmark_retry : int
+        After the landmark backend found no face, frames to wait before asking it again (it is slow).
     landmark_model : str or None
         Path of the landmark backend's model; default ``$FACEPUPPET_FACE_LANDMARKER``.
     min_landmark_score : float
@@ -116,6 +118,7 @@ class ColorTrackerConfig:
     min_followed_score: float = 0.1
     landmark_acquire: bool = True
     landmark_model: str | None = None
+    landmark_retry: int = 10
     min_landmark_score: float = -1.0
 
 
@@ -186,6 +189,7 @@ class ColorTracker:
         self._last_ms: int | None = None
         self._landmarker = None          # the landmark backend, once needed (False: not available)
         self._skinless_ok = False
+        self._landmark_wait = 0
         self._mouth_offset = np.zeros(2)  # crop pixels the mouth sits off the layout (set by the landmark backend)
         self._pose = None
         self._count = 0
@@ -260,6 +264,9 @@ class ColorTracker:
         """The face frame placed on the eyes the landmark backend finds (no skin needed), refined on §3's eyes."""
         if not self.config.landmark_acquire or self._landmarker is False:
             return None
+        if self._landmark_wait > 0:
+            self._landmark_wait -= 1
+            return None
         if self._landmarker is None:
             try:
                 from facepuppet.capture.landmarks import MediaPipeTracker
@@ -271,6 +278,7 @@ class ColorTracker:
                 return None
         found = self._landmarker.track(rgb, 0)
         if not found.valid:
+            self._landmark_wait = self.config.landmark_retry
             return None
         eyes = np.array([np.concatenate([bezier_points(found.curves[_IDX[f"eye_{side}_{lid}"]], 16)
                                          for lid in ("upper", "lower")]).mean(axis=0) for side in ("right", "left")])
