@@ -1,1 +1,0 @@
-"""Synthesis (paper §5.4): blending key-models (Eq. 14) and wire deformation."""
