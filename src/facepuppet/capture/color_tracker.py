@@ -619,16 +619,10 @@ class ColorTracker:
             el, er = l0 - lx_l, l1 - lx_r
             ctrl[:, 0] = (xl + el) + (layout[c, :, 0] - l0) * ((xr + er) - (xl + el)) / max(l1 - l0, 1e-6)
             ctrl[0, 1], ctrl[3, 1] = yl + (layout[c, 0, 1] - ly_l), yr + (layout[c, 3, 1] - ly_r)
-        # Outer lips: the blob's outline.
-        for c, prof, lo_b, hi_b in ((uo, top, -0.15, 0.15), (lo, bottom, -0.15, 0.8)):
-            ctrl = out[c]
-            y = self._sample_profile(ctrl, cols, prof + y0, x0)
-            if y is not None:
-                m = ctrl[1:3, 1] + _mid_shift(ctrl, y)
-                ctrl[1:3, 1] = np.clip(m, layout[c, 1:3, 1] + lo_b * unit, layout[c, 1:3, 1] + hi_b * unit)
-        # Inner lips: the opening inside the outline.
+        # Outer lips: the blob's outline; inner lips: the opening inside it.
         itop, ibot = self._opening(blob.mask, cols, top, bottom, self._crop_value(x0, y0, x1, y1), unit)
-        for c, prof, lo_b, hi_b in ((ui, itop, -0.15, 0.15), (li, ibot, -0.15, 0.8)):
+        for c, prof, lo_b, hi_b in ((uo, top, -0.15, 0.15), (lo, bottom, -0.15, 0.8),
+                                    (ui, itop, -0.15, 0.15), (li, ibot, -0.15, 0.8)):
             ctrl = out[c]
             y = self._sample_profile(ctrl, cols, prof + y0, x0)
             if y is not None:

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["OneEuroConfig", "OneEuro"]
+__all__ = ["OneEuroConfig", "OneEuro", "smoothing_factor"]
 
 
 @dataclass(frozen=True)
@@ -34,7 +34,7 @@ class OneEuroConfig:
     d_cutoff: float = 1.0
 
 
-def _alpha(cutoff: np.ndarray | float, dt: float) -> np.ndarray | float:
+def smoothing_factor(cutoff: np.ndarray | float, dt: float) -> np.ndarray | float:
     """Gain of an exponential filter with cut-off ``cutoff`` (Hz) at sampling step ``dt`` (s)."""
     tau = 1.0 / (2.0 * np.pi * cutoff)
     return 1.0 / (1.0 + tau / dt)
@@ -80,7 +80,7 @@ class OneEuro:
             return x.copy()
         cfg = self.config
         speed = np.linalg.norm(x - self._x, axis=-1) / (dt * scale)           # (...,)
-        self._dx = self._dx + _alpha(cfg.d_cutoff, dt) * (speed - self._dx)
-        a = _alpha(cfg.min_cutoff + cfg.beta * self._dx, dt)[..., None]
+        self._dx = self._dx + smoothing_factor(cfg.d_cutoff, dt) * (speed - self._dx)
+        a = smoothing_factor(cfg.min_cutoff + cfg.beta * self._dx, dt)[..., None]
         self._x = self._x + a * (x - self._x)
         return self._x.copy()

@@ -26,10 +26,11 @@ When the face returns the filter carries on from wherever the output stands, so 
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 
 import numpy as np
+
+from facepuppet.capture.one_euro import smoothing_factor
 
 __all__ = ["SmoothingConfig", "OneEuroFilter", "smooth", "parse_smoothing"]
 
@@ -96,11 +97,6 @@ def parse_smoothing(text: str) -> SmoothingConfig:
         except ValueError:
             raise ValueError(f"--smoothing: {key} must be a number, got {value!r}") from None
     return replace(SmoothingConfig(), **values)
-
-
-def _alpha(cutoff: np.ndarray | float, dt: float) -> np.ndarray | float:
-    tau = 1.0 / (2.0 * math.pi * cutoff)
-    return 1.0 / (1.0 + tau / dt)
 
 
 class OneEuroFilter:
@@ -171,8 +167,8 @@ class OneEuroFilter:
         if dt <= 0:
             dt = 1e-3
         dx = (x - self._y) / dt
-        self._dx = self._dx + _alpha(cfg.d_cutoff, dt) * (dx - self._dx)
-        a = _alpha(cfg.min_cutoff + cfg.beta * np.abs(self._dx), dt)
+        self._dx = self._dx + smoothing_factor(cfg.d_cutoff, dt) * (dx - self._dx)
+        a = smoothing_factor(cfg.min_cutoff + cfg.beta * np.abs(self._dx), dt)
         self._y = self._y + a * (x - self._y)
         self._t = t
         return self._y.copy()
