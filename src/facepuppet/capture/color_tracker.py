@@ -18,9 +18,9 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from facepuppet.capture.blobs import BlobConfig, column_profile, grow_blob
-from facepuppet.capture.color import contrast, lip_hue_table, transform
-from facepuppet.capture.curves import CURVE_NAMES, POINT_NAMES, bernstein, bezier_points
+from facepuppet.capture.blobs import BlobConfig
+from facepuppet.capture.color import lip_hue_table
+from facepuppet.capture.curves import CURVE_NAMES, POINT_NAMES, bezier_points
 from facepuppet.capture.face import (
     CROP_EXTENT,
     FEATURE_BOXES,
@@ -30,6 +30,7 @@ from facepuppet.capture.face import (
 )
 from facepuppet.capture.features import FrameFeatures
 from facepuppet.capture.one_euro import OneEuro, OneEuroConfig
+from facepuppet.capture.outlines import BLOB_KINDS, BOX_NAMES, eye_centres, feature_intensity, outline_features
 from facepuppet.capture.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
 from facepuppet.capture.snakes import LOWER, UPPER, SnakeConfig, minimise_snakes, snake_fields
 from facepuppet.errors import FacepuppetError
@@ -39,14 +40,6 @@ __all__ = ["ColorTrackerConfig", "ColorTracker"]
 log = logging.getLogger(__name__)
 
 _IDX = {n: i for i, n in enumerate(CURVE_NAMES)}
-_K = 12  # boundary samples per curve
-_T = np.linspace(0.0, 1.0, _K)
-_B = bernstein(_T)                                     # (K, 4)
-_MID = _B[:, 1] + _B[:, 2]                             # (K,): how much a common shift of the middle points moves
-_CENTRAL = _MID >= 0.6                                 # samples the middle control points move most
-_PINV_ALL = np.linalg.pinv(_B)                         # (4, K)
-_kernel3 = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3))
-
 #: Blob options per rectangle.
 _BLOB = {
     "brow": BlobConfig(seed_level=0.7, grow_level=0.45, radius=1, close=3),
@@ -54,6 +47,11 @@ _BLOB = {
     "nose": BlobConfig(seed_level=0.7, grow_level=0.4, radius=0, close=0),
     "mouth": BlobConfig(seed_level=0.6, grow_level=0.3, radius=1, close=3),
 }
+_BLOB_PARAMS = np.array([_BLOB[k].as_array() for k in BLOB_KINDS])
+_SHIFTED = np.array([not n.startswith("cheek") for n in BOX_NAMES])     # rectangles that follow the eyes
+_MOUTH_BOX = BOX_NAMES.index("mouth")
+_CHEEK_L, _CHEEK_R = BOX_NAMES.index("cheek_left"), BOX_NAMES.index("cheek_right")
+_EYE_L, _EYE_R = BOX_NAMES.index("eye_left"), BOX_NAMES.index("eye_right")
 
 #: Curves refined as snakes, with the side their feature lies on (Fig. 3).
 _SNAKE_CURVES = (("lip_upper_outer", UPPER),
@@ -122,17 +120,6 @@ class ColorTrackerConfig:
     min_landmark_score: float = -1.0
 
 
-def _mid_shift(ctrl: np.ndarray, y: np.ndarray) -> float:
-    """The common vertical shift of a curve's middle control points that best moves it onto the profile ``y``.
-
-    One robust number per curve (median over the central samples) instead of two free control points: a lid or
-    lip keeps its shape and opens or closes, and a noisy column cannot bend it.
-    """
-    d = np.sort((y - _B @ ctrl[:, 1])[_CENTRAL] / _MID[_CENTRAL])
-    n = len(d)
-    return float(0.5 * (d[(n - 1) // 2] + d[n // 2]))
-
-
 def _box_px(box, px):
     x0, y0 = CROP_EXTENT[0], CROP_EXTENT[1]
     return (int(round((box[0] - x0) * px)), int(round((box[1] - y0) * px)),
@@ -173,6 +160,8 @@ class ColorTracker:
         shift = self._layout_shift(profile.layout)
         self._boxes = {k: _box_px(np.asarray(b) + np.r_[shift.get(k, (0, 0)), shift.get(k, (0, 0))], px)
                        for k, b in FEATURE_BOXES.items()}
+        self._box_table = np.array([self._boxes[n] for n in BOX_NAMES], dtype=np.int64)
+        self._eye_window = (int(round(config.eye_window[0] * px)), int(round(config.eye_window[1] * px)))
         self._layout_px = (np.asarray(profile.layout) - CROP_EXTENT[:2]) * px
         self._anchors_px = (np.asarray(profile.anchors) - CROP_EXTENT[:2]) * px
         self._frame: FaceFrame | None = None
@@ -382,16 +371,9 @@ class ColorTracker:
 
             self._weights = self._net.predict(subarea_means(crop, self.config.px))
         self._count += 1
-        img = transform(crop, self._weights, self._hue, self.profile.lip_hue.min_saturation)
-        self._raw = img.copy()
-        x0, y0, x1, y1 = self._boxes["cheek_left"]
-        a0, b0, a1, b1 = self._boxes["cheek_right"]
-        self._crop = crop
-        skin = np.concatenate([img[y0:y1, x0:x1].ravel(), img[b0:b1, a0:a1].ravel()])
-        low = float(np.median(skin))
-        e = [self._boxes["eye_left"], self._boxes["eye_right"]]
-        feat = max(float(img[b[1]:b[3], b[0]:b[2]].max()) for b in e)
-        self.intensity_last = contrast(img, low + 0.15 * (feat - low), low + 0.75 * (feat - low), out=img)
+        self._raw, self.intensity_last, self._value = feature_intensity(
+            crop, self._weights.astype(np.float64), self._hue, self.profile.lip_hue.min_saturation,
+            self._box_table[[_CHEEK_L, _CHEEK_R]], self._box_table[[_EYE_L, _EYE_R]])
         return self.intensity_last
 
     def _measure(self, rgb: np.ndarray, frame: FaceFrame, *, follow: bool, gain: float):
@@ -431,7 +413,8 @@ class ColorTracker:
         scale = float(np.hypot(*S_px[:, 0]))
         self._shift = S_px[:, 2] + (S_px[:, :2] - np.eye(2)) @ self._anchors_px[:2].mean(axis=0)
         layout = self._layout_px @ S_px[:, :2].T + S_px[:, 2]
-        curves_px = self._blobs(C, layout, px * scale)
+        curves_px = outline_features(C, self._raw, self._value, layout, self._mouth_offset, self._boxes_now(),
+                                     _BLOB_PARAMS, px * scale)
         idx = [_IDX[n] for n, _ in _SNAKE_CURVES]
         if idx:
             side = np.array([s for _, s in _SNAKE_CURVES])
@@ -474,25 +457,9 @@ class ColorTracker:
         self._template_mask = m
 
     def _eye_centres(self, C: np.ndarray) -> np.ndarray | None:
-        """Eye centres (2, 2) in crop pixels by a few mean-shift steps of C around the expected anchors."""
-        px = self.config.px
-        hw, hh = int(round(self.config.eye_window[0] * px)), int(round(self.config.eye_window[1] * px))
-        h, w = C.shape
-        out = np.zeros((2, 2))
-        for k in range(2):
-            c = self._anchors_px[k].astype(float)
-            for _ in range(3):
-                x0, y0 = int(round(c[0])) - hw, int(round(c[1])) - hh
-                xa, ya = max(x0, 0), max(y0, 0)
-                win = C[ya:min(y0 + 2 * hh + 1, h), xa:min(x0 + 2 * hw + 1, w)]
-                wt = win * win
-                total = float(wt.sum())
-                if total < 0.01 * (2 * hw + 1) * (2 * hh + 1):
-                    return None
-                c = np.array([float((wt.sum(0) * np.arange(wt.shape[1])).sum()) / total + xa,
-                              float((wt.sum(1) * np.arange(wt.shape[0])).sum()) / total + ya])
-            out[k] = c
-        return out
+        """Eye centres (2, 2) in crop pixels near the expected anchors (:func:`~.outlines.eye_centres`), or None."""
+        found, eyes = eye_centres(C, self._anchors_px, *self._eye_window)
+        return eyes if found else None
 
     def _grey(self, rgb: np.ndarray, A: np.ndarray) -> np.ndarray:
         """The face crop of crop matrix ``A`` at half resolution, grey, float32 (for the ECC alignment)."""
@@ -527,175 +494,12 @@ class ColorTracker:
         sk = skin_probability(np.concatenate([crop[y0:y1, x0:x1], crop[b0:b1, a0:a1]], axis=1), self.profile.skin)
         return float(sk.mean()) > 0.3 * 255
 
-    def _box(self, name: str, layout: np.ndarray | None) -> tuple[int, int, int, int]:
-        """A feature rectangle (crop pixels) moved with the layout's eyes (translation only), clipped."""
-        x0, y0, x1, y1 = self._boxes[name]
-        d = np.round(self._shift + (self._mouth_offset if name == "mouth" else 0.0)).astype(int)
-        h, w = self._size[1], self._size[0]
-        return (min(max(x0 + d[0], 0), w), min(max(y0 + d[1], 0), h),
-                min(max(x1 + d[0], 0), w), min(max(y1 + d[1], 0), h))
-
-    def _blobs(self, C: np.ndarray, layout: np.ndarray, unit: float) -> np.ndarray:
-        """The layout (C, 4, 2, crop pixels) moved onto each feature's blob, within plausible bounds (§3.2).
-
-        ``unit`` is crop pixels per face unit. A feature whose blob is missing keeps its layout curve.
-        """
-        out = layout.copy()
-        for side in ("right", "left"):
-            x0, y0, x1, y1 = self._box(f"eye_{side}", layout)
-            e = layout[[_IDX[f"eye_{side}_upper"], _IDX[f"eye_{side}_lower"]]].reshape(-1, 2).mean(axis=0)
-            blob = grow_blob(C[y0:y1, x0:x1], _BLOB["eye"], near=(e[0] - x0, e[1] - y0, 0.25 * unit))
-            if blob is None:
-                continue
-            cols, top, bottom = column_profile(blob.mask)
-            up, lo = _IDX[f"eye_{side}_upper"], _IDX[f"eye_{side}_lower"]
-            y = self._sample_profile(out[lo], cols, bottom + y0, x0)
-            if y is not None:
-                out[lo, 1:3, 1] += np.clip(_mid_shift(out[lo], y), -0.08 * unit, 0.08 * unit)
-            # The lid curve is the lower edge of the lash line (the landmark convention), not the blob's top.
-            y = self._sample_profile(out[up], cols, top + self._lash(C[y0:y1, x0:x1], blob.mask, cols, top, unit)
-                                     + y0, x0)
-            if y is not None:
-                mid = out[up, 1:3, 1] + np.clip(_mid_shift(out[up], y), -0.1 * unit, 0.2 * unit)
-                # The upper lid may not cross the lower one.
-                out[up, 1:3, 1] = np.minimum(mid, out[lo, 1:3, 1] - 0.02 * unit)
-        for side in ("right", "left"):
-            x0, y0, x1, y1 = self._box(f"brow_{side}", layout)
-            # Brows are often fainter than the eyes and lips the contrast C is scaled to: normalise the raw
-            # intensity of Eq. 1 within the rectangle (forehead skin at the median).
-            raw = self._raw[y0:y1, x0:x1]
-            if raw.size == 0:
-                continue
-            lo, hi = np.percentile(raw, (50.0, 97.0))
-            e = layout[_IDX[f"brow_{side}"]].mean(axis=0)
-            blob = grow_blob((raw - lo) / max(hi - lo, 1e-6), _BLOB["brow"], near=(e[0] - x0, e[1] - y0, 0.3 * unit))
-            if blob is None or blob.box[2] - blob.box[0] < 0.4 * (x1 - x0):
-                continue
-            cols, top, bottom = column_profile(blob.mask)
-            c = _IDX[f"brow_{side}"]
-            # The brow's upper edge is sharp; its lower edge may merge with the lid's shadow.
-            y = self._sample_profile(out[c], cols, np.minimum(top + 0.05 * unit, (top + bottom) / 2.0) + y0, x0)
-            if y is not None:
-                d = float(np.median(y - _B @ out[c, :, 1]))
-                out[c, :, 1] += np.clip(d, -0.15 * unit, 0.15 * unit)
-        self._mouth(C, layout, out, unit)
-        return out
-
-    def _mouth(self, C: np.ndarray, layout: np.ndarray, out: np.ndarray, unit: float) -> None:
-        """Lips from the mouth blob (§3.2, Fig. 3): corners and outer lips from its outline, inner lips from
-        the mouth opening inside it.
-
-        Eq. 1 makes the lips and the dark opening both bright, so the blob spans the outer lip outline. The
-        opening is the part of the blob that is dark (low V, as the teeth-less inside of a mouth is) or that
-        the blob leaves out between its top and bottom (teeth: bright and grey). Where no opening is found
-        the lips are closed and both inner curves follow the darkest row between the lips (the lip crease).
-        """
-        x0, y0, x1, y1 = self._box("mouth", layout)
-        if self._mouth_offset.any():
-            layout = layout.copy()
-            layout[[_IDX[n] for n in CURVE_NAMES if n.startswith("lip_")]] += self._mouth_offset
-        centre = layout[[_IDX["lip_upper_inner"], _IDX["lip_lower_inner"]]].reshape(-1, 2).mean(axis=0)
-        blob = grow_blob(C[y0:y1, x0:x1], _BLOB["mouth"], near=(centre[0] - x0, centre[1] - y0, 0.3 * unit))
-        if blob is None:
-            return
-        cols, top, bottom = column_profile(blob.mask)
-        xs = np.flatnonzero(cols)
-        if len(xs) < 4:
-            return
-        names = ("lip_upper_outer", "lip_lower_outer", "lip_upper_inner", "lip_lower_inner")
-        uo, lo, ui, li = (_IDX[n] for n in names)
-        lx_l, lx_r = layout[uo, 0, 0], layout[uo, 3, 0]
-        ly_l, ly_r = layout[uo, 0, 1], layout[uo, 3, 1]
-        b = 0.12 * unit
-        xl = float(np.clip(xs[0] + x0, lx_l - b, lx_l + b))
-        xr = float(np.clip(xs[-1] + 1 + x0, lx_r - b, lx_r + b))
-        mid = (top + bottom) / 2.0 + y0
-        yl = float(np.clip(mid[xs[0]:xs[0] + 3].mean(), ly_l - b, ly_l + b))
-        yr = float(np.clip(mid[xs[-1] - 2:xs[-1] + 1].mean(), ly_r - b, ly_r + b))
-        for c in (uo, lo, ui, li):
-            ctrl = out[c]
-            l0, l1 = layout[c, 0, 0], layout[c, 3, 0]
-            # Each curve keeps its end offsets from the outer corners (inner lip ends lie inside the mouth).
-            el, er = l0 - lx_l, l1 - lx_r
-            ctrl[:, 0] = (xl + el) + (layout[c, :, 0] - l0) * ((xr + er) - (xl + el)) / max(l1 - l0, 1e-6)
-            ctrl[0, 1], ctrl[3, 1] = yl + (layout[c, 0, 1] - ly_l), yr + (layout[c, 3, 1] - ly_r)
-        # Outer lips: the blob's outline; inner lips: the opening inside it.
-        itop, ibot = self._opening(blob.mask, cols, top, bottom, self._crop_value(x0, y0, x1, y1), unit)
-        for c, prof, lo_b, hi_b in ((uo, top, -0.15, 0.15), (lo, bottom, -0.15, 0.8),
-                                    (ui, itop, -0.15, 0.15), (li, ibot, -0.15, 0.8)):
-            ctrl = out[c]
-            y = self._sample_profile(ctrl, cols, prof + y0, x0)
-            if y is not None:
-                m = ctrl[1:3, 1] + _mid_shift(ctrl, y)
-                ctrl[1:3, 1] = np.clip(m, layout[c, 1:3, 1] + lo_b * unit, layout[c, 1:3, 1] + hi_b * unit)
-        out[ui, 1:3, 1] = np.clip(out[ui, 1:3, 1], out[uo, 1:3, 1], out[lo, 1:3, 1])
-        out[li, 1:3, 1] = np.clip(out[li, 1:3, 1], out[ui, 1:3, 1], out[lo, 1:3, 1])
-
-    def _opening(self, mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.ndarray, value: np.ndarray,
-                 unit: float) -> tuple[np.ndarray, np.ndarray]:
-        """Top and bottom of the mouth opening per column of the mouth rectangle (the lip crease if closed).
-
-        Parameters
-        ----------
-        mask : (H, W) bool
-            The lip blob.
-        cols, top, bottom : (W,)
-            Its column profile (:func:`~facepuppet.capture.blobs.column_profile`).
-        value : (H, W) float32
-            HSV value V of the rectangle, 0..255.
-        unit : float
-            Crop pixels per face unit.
-        """
-        h = mask.shape[0]
-        rows = np.arange(h, dtype=np.float32)[:, None]
-        inside = (rows >= top[None] + 1) & (rows < bottom[None] - 1) & cols[None]
-        lips = value[mask]
-        x0, y0, x1, y1 = self._boxes["cheek_left"]
-        a0, b0, a1, b1 = self._boxes["cheek_right"]
-        skin = float(np.median(np.concatenate([self._crop_value(x0, y0, x1, y1).ravel(),
-                                               self._crop_value(a0, b0, a1, b1).ravel()])))
-        # Dark: well below the lips' and the skin's brightness.
-        thr = 0.5 * min(float(np.percentile(lips, 75)) if lips.size else skin, skin)
-        opening = inside & ((value < thr) | ~mask)
-        opening = cv2.morphologyEx(opening.astype(np.uint8), cv2.MORPH_OPEN, _kernel3)
-        n, labels, stats, _ = cv2.connectedComponentsWithStats(opening, connectivity=8)
-        crease = np.argmin(np.where(inside, value, np.inf), axis=0).astype(np.float32) + 0.5
-        crease = np.where(inside.any(axis=0), crease, (top + bottom) / 2.0)
-        if n < 2:
-            return crease, crease
-        k = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
-        if stats[k, cv2.CC_STAT_AREA] < 0.004 * unit * unit or stats[k, cv2.CC_STAT_WIDTH] < 0.1 * unit:
-            return crease, crease
-        o = labels == k
-        has = o.any(axis=0)
-        otop = o.argmax(axis=0).astype(np.float32)
-        obot = (h - o[::-1].argmax(axis=0)).astype(np.float32)
-        return np.where(has, otop, crease), np.where(has, obot, crease)
-
-    def _crop_value(self, x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
-        """HSV value V (0..255, float32) of a rectangle of the current crop."""
-        r = self._crop[y0:y1, x0:x1]
-        return cv2.max(cv2.max(r[..., 0], r[..., 1]), r[..., 2]).astype(np.float32)
-
-    @staticmethod
-    def _lash(C: np.ndarray, mask: np.ndarray, cols: np.ndarray, top: np.ndarray, unit: float) -> float:
-        """Thickness (rows) of the lash line at the top of an eye blob, where the white of the eye shows below it.
-
-        In each column the bright run from the blob's top is measured; runs shorter than ``0.1 * unit`` are
-        lash line over sclera (longer ones reach into the iris). Their median, or 0 when too few columns show it.
-        """
-        h = mask.shape[0]
-        rows = np.arange(h, dtype=np.float32)[:, None]
-        below = (rows >= top[None]) & ~(mask & (C > 0.5))
-        run = np.where(below.any(axis=0), below.argmax(axis=0) - top, h)
-        short = run[cols & (run > 0) & (run < 0.1 * unit)]
-        return float(np.median(short)) if short.size >= 3 else 0.0
-
-    @staticmethod
-    def _sample_profile(ctrl: np.ndarray, cols: np.ndarray, prof: np.ndarray, x0: int) -> np.ndarray | None:
-        """A blob profile (per rectangle column) read at the x of the curve's K samples; None if too few."""
-        xs = np.flatnonzero(cols)
-        if len(xs) < 3:
-            return None
-        x_samples = _B @ ctrl[:, 0] - x0 - 0.5
-        return np.interp(x_samples, xs, prof[xs])
+    def _boxes_now(self) -> np.ndarray:
+        """The feature rectangles (len(BOX_NAMES), 4) of this frame: moved with the layout's eyes (translation
+        only; the mouth also by its offset), clipped to the crop. The cheeks stay where the frame puts them."""
+        d = np.zeros((len(BOX_NAMES), 2))
+        d[_SHIFTED] = self._shift
+        d[_MOUTH_BOX] += self._mouth_offset
+        d = np.tile(np.round(d).astype(np.int64), 2)
+        w, h = self._size
+        return np.clip(self._box_table + d, 0, [w, h, w, h])

@@ -1,0 +1,460 @@
+"""Feature outlines read off the feature intensity (paper §3.2): the colour tracker's per-frame rules.
+
+In a face crop whose feature intensity C (Eq. 1 and the contrast C) is known, each feature's rectangle gets
+a blob (:func:`~facepuppet.capture.blobs.blob_kernel`) and the layout's curves are moved onto the blob's
+column profile:
+
+* eyes: the lower lid onto the blob's bottom edge, the upper lid onto the lower edge of the lash line at
+  its top (the landmark convention); the upper lid never crosses the lower one;
+* brows: on the raw Eq. 1 intensity normalised inside the rectangle (forehead skin at the median), the brow
+  curve onto its upper edge, at most half the brow's thickness down (the upper edge is sharp, the lower
+  may merge with the lid's shadow);
+* mouth: corners and outer lips from the blob's outline, inner lips from the mouth opening inside it (dark
+  pixels or pixels the blob leaves out between its top and bottom, as teeth), or the lip crease when closed.
+
+Each curve keeps its shape and moves by one robust number (the median shift of its middle control points
+over the central samples), so a noisy column cannot bend it. Everything here is compiled with numba: it is
+the tracker's per-frame work, a few hundred small steps that cost more to call than to do.
+
+Conventions: crop pixels, x right, y down; curves (C, 4, 2) control points in :data:`CURVE_NAMES` order;
+rectangles (x0, y0, x1, y1) inclusive-exclusive, in the order of :data:`BOX_NAMES`.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from facepuppet.capture.blobs import blob_kernel, label8, open_mask
+from facepuppet.capture.curves import CURVE_NAMES, bernstein
+
+__all__ = ["BOX_NAMES", "BLOB_KINDS", "eye_centres", "feature_intensity", "outline_features"]
+
+_JIT = {"cache": True, "nogil": True}
+
+#: Rectangles :func:`outline_features` reads, in the order of its ``boxes`` argument.
+BOX_NAMES = ("eye_right", "eye_left", "brow_right", "brow_left", "mouth", "cheek_left", "cheek_right")
+#: Blob options, in the order of its ``blob_params`` rows.
+BLOB_KINDS = ("eye", "brow", "mouth")
+
+_I = {n: i for i, n in enumerate(CURVE_NAMES)}
+_BROW = np.array([_I["brow_right"], _I["brow_left"]])
+_LID_UP = np.array([_I["eye_right_upper"], _I["eye_left_upper"]])
+_LID_LO = np.array([_I["eye_right_lower"], _I["eye_left_lower"]])
+_LIPS = np.array([_I["lip_upper_outer"], _I["lip_lower_outer"], _I["lip_upper_inner"], _I["lip_lower_inner"]])
+
+_K = 12                                                 # boundary samples per curve
+_B = bernstein(np.linspace(0.0, 1.0, _K))               # (K, 4)
+_MID = _B[:, 1] + _B[:, 2]                              # how much a common shift of the middle points moves
+_CENTRAL = np.flatnonzero(_MID >= 0.6)                  # samples the middle control points move most
+
+
+@nb.njit(**_JIT)
+def _along(ctrl: np.ndarray, d: int) -> np.ndarray:
+    """Coordinate ``d`` of the curve's K samples, ``B @ ctrl[:, d]``."""
+    out = np.zeros(_K)
+    for k in range(_K):
+        for j in range(4):
+            out[k] += _B[k, j] * ctrl[j, d]
+    return out
+
+
+@nb.njit(**_JIT)
+def _median(a: np.ndarray) -> float:
+    d = np.sort(a)
+    n = len(d)
+    return 0.5 * (d[(n - 1) // 2] + d[n // 2])
+
+
+@nb.njit(**_JIT)
+def _mid_shift(ctrl: np.ndarray, y: np.ndarray) -> float:
+    """The common vertical shift of the middle control points that best moves the curve onto the profile ``y``
+    (median over the central samples)."""
+    base = _along(ctrl, 1)
+    d = np.empty(len(_CENTRAL))
+    for i in range(len(_CENTRAL)):
+        k = _CENTRAL[i]
+        d[i] = (y[k] - base[k]) / _MID[k]
+    return _median(d)
+
+
+@nb.njit(**_JIT)
+def _sample_profile(ctrl: np.ndarray, cols: np.ndarray, prof: np.ndarray, x0: int):
+    """A blob profile (per rectangle column, plus ``y0``) read at the x of the curve's K samples.
+
+    Returns (ok, y): ok is False when fewer than three columns hold the blob.
+    """
+    xs = np.nonzero(cols)[0]
+    if len(xs) < 3:
+        return False, np.zeros(_K)
+    xf = xs.astype(np.float64)
+    pf = np.empty(len(xs))
+    for i in range(len(xs)):
+        pf[i] = prof[xs[i]]
+    x_samples = _along(ctrl, 0) - x0 - 0.5
+    return True, np.interp(x_samples, xf, pf)
+
+
+@nb.njit(**_JIT)
+def _lash(C: np.ndarray, mask: np.ndarray, cols: np.ndarray, top: np.ndarray, unit: float) -> float:
+    """Thickness (rows) of the lash line at the top of an eye blob, where the white of the eye shows below it.
+
+    In each column the bright run from the blob's top is measured; runs shorter than ``0.1 * unit`` are the
+    lash line over the sclera (longer ones reach into the iris). Their median, or 0 when fewer than three
+    columns show it.
+    """
+    h, w = mask.shape
+    runs = np.empty(w)
+    n = 0
+    for x in range(w):
+        if not cols[x]:
+            continue
+        run = float(h)
+        for r in range(h):
+            if r >= top[x] and not (mask[r, x] and C[r, x] > 0.5):
+                run = r - top[x]
+                break
+        if 0 < run < 0.1 * unit:
+            runs[n] = run
+            n += 1
+    return _median(runs[:n]) if n >= 3 else 0.0
+
+
+@nb.njit(**_JIT)
+def _median_of_boxes(img: np.ndarray, boxes: np.ndarray) -> float:
+    """Median of the pixels of several rectangles of ``img`` together."""
+    total = 0
+    for b in range(len(boxes)):
+        total += max(boxes[b, 2] - boxes[b, 0], 0) * max(boxes[b, 3] - boxes[b, 1], 0)
+    vals = np.empty(total)
+    n = 0
+    for b in range(len(boxes)):
+        for y in range(boxes[b, 1], boxes[b, 3]):
+            for x in range(boxes[b, 0], boxes[b, 2]):
+                vals[n] = img[y, x]
+                n += 1
+    return _median(vals) if n else 0.0
+
+
+@nb.njit(**_JIT)
+def _eyes(C: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: np.ndarray, params: np.ndarray,
+          unit: float) -> None:
+    for side in range(2):
+        x0, y0, x1, y1 = boxes[side]
+        up, lo = _LID_UP[side], _LID_LO[side]
+        ex = 0.125 * (layout[up, :, 0].sum() + layout[lo, :, 0].sum())
+        ey = 0.125 * (layout[up, :, 1].sum() + layout[lo, :, 1].sum())
+        sub = C[y0:y1, x0:x1]
+        found, mask, _, _, _, cols, top, bottom = blob_kernel(sub, params, ex - x0, ey - y0, 0.25 * unit, 3)
+        if not found:
+            continue
+        ok, y = _sample_profile(out[lo], cols, bottom + y0, x0)
+        if ok:
+            d = min(max(_mid_shift(out[lo], y), -0.08 * unit), 0.08 * unit)
+            out[lo, 1, 1] += d
+            out[lo, 2, 1] += d
+        # The lid curve is the lower edge of the lash line (the landmark convention), not the blob's top.
+        ok, y = _sample_profile(out[up], cols, top + _lash(sub, mask, cols, top, unit) + y0, x0)
+        if ok:
+            d = min(max(_mid_shift(out[up], y), -0.1 * unit), 0.2 * unit)
+            for j in (1, 2):
+                # The upper lid may not cross the lower one.
+                out[up, j, 1] = min(out[up, j, 1] + d, out[lo, j, 1] - 0.02 * unit)
+
+
+@nb.njit(**_JIT)
+def _brows(raw: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: np.ndarray, params: np.ndarray,
+           unit: float) -> None:
+    for side in range(2):
+        x0, y0, x1, y1 = boxes[2 + side]
+        if x1 <= x0 or y1 <= y0:
+            continue
+        # Brows are often fainter than the eyes and lips the contrast C is scaled to: normalise the raw
+        # intensity of Eq. 1 within the rectangle (forehead skin at the median).
+        sub = raw[y0:y1, x0:x1].astype(np.float64)
+        flat = sub.ravel()
+        lo_v = np.percentile(flat, 50.0)
+        hi_v = np.percentile(flat, 97.0)
+        norm = (sub - lo_v) / max(hi_v - lo_v, 1e-6)
+        c = _BROW[side]
+        ex = 0.25 * layout[c, :, 0].sum()
+        ey = 0.25 * layout[c, :, 1].sum()
+        found, _, _, box, _, cols, top, bottom = blob_kernel(norm, params, ex - x0, ey - y0, 0.3 * unit, 3)
+        if not found or box[2] - box[0] < 0.4 * (x1 - x0):
+            continue
+        # The brow's upper edge is sharp; its lower edge may merge with the lid's shadow.
+        edge = np.minimum(top + 0.05 * unit, (top + bottom) / 2.0) + y0
+        ok, y = _sample_profile(out[c], cols, edge, x0)
+        if ok:
+            d = min(max(_median(y - _along(out[c], 1)), -0.15 * unit), 0.15 * unit)
+            out[c, :, 1] += d
+
+
+@nb.njit(**_JIT)
+def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.ndarray, value: np.ndarray,
+             skin: float, unit: float):
+    """Top and bottom of the mouth opening per column of the mouth rectangle (the lip crease if closed).
+
+    ``value`` is the HSV value V (0..255) of the rectangle, ``skin`` the cheeks' median V. The opening is
+    dark (below half the lips' and the skin's brightness) or left out of the lip blob between its top and
+    bottom; its largest 8-connected part counts if it is big and wide enough.
+    """
+    h, w = mask.shape
+    lips = np.empty(h * w)
+    n = 0
+    for y in range(h):
+        for x in range(w):
+            if mask[y, x]:
+                lips[n] = value[y, x]
+                n += 1
+    level = np.percentile(lips[:n], 75.0) if n else skin
+    thr = 0.5 * min(level, skin)
+    opening = np.zeros((h, w), np.uint8)
+    crease = np.empty(w, np.float32)
+    for x in range(w):
+        best = np.inf
+        arg = -1
+        for y in range(h):
+            if cols[x] and top[x] + 1 <= y < bottom[x] - 1:
+                if value[y, x] < thr or not mask[y, x]:
+                    opening[y, x] = 1
+                if value[y, x] < best:
+                    best = value[y, x]
+                    arg = y
+        crease[x] = arg + 0.5 if arg >= 0 else (top[x] + bottom[x]) / 2.0
+    opening = open_mask(opening, 3)
+    labels, count = label8(opening)
+    if count < 2:
+        return crease, crease.copy()
+    area = np.zeros(count, np.int64)
+    xmin = np.full(count, w)
+    xmax = np.full(count, -1)
+    for y in range(h):
+        for x in range(w):
+            k = labels[y, x]
+            if k:
+                area[k] += 1
+                xmin[k] = min(xmin[k], x)
+                xmax[k] = max(xmax[k], x)
+    k = 1 + np.argmax(area[1:])
+    if area[k] < 0.004 * unit * unit or xmax[k] - xmin[k] + 1 < 0.1 * unit:
+        return crease, crease.copy()
+    otop = crease.copy()
+    obot = crease.copy()
+    for x in range(w):
+        for y in range(h):
+            if labels[y, x] == k:
+                otop[x] = y
+                break
+        for y in range(h - 1, -1, -1):
+            if labels[y, x] == k:
+                obot[x] = y + 1
+                break
+    return otop, obot
+
+
+@nb.njit(**_JIT)
+def _mouth(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset: np.ndarray, out: np.ndarray,
+           boxes: np.ndarray, params: np.ndarray, unit: float) -> None:
+    """Lips from the mouth blob (§3.2, Fig. 3): corners and outer lips from its outline, inner lips from the
+    mouth opening inside it. ``offset`` (2,) moves the layout's lips (where the mouth was seen at acquisition).
+    """
+    x0, y0, x1, y1 = boxes[4]
+    lay = layout.copy()
+    for c in _LIPS:
+        lay[c, :, 0] += offset[0]
+        lay[c, :, 1] += offset[1]
+    uo, lo, ui, li = _LIPS[0], _LIPS[1], _LIPS[2], _LIPS[3]
+    cx = 0.125 * (lay[ui, :, 0].sum() + lay[li, :, 0].sum())
+    cy = 0.125 * (lay[ui, :, 1].sum() + lay[li, :, 1].sum())
+    sub = C[y0:y1, x0:x1]
+    found, mask, _, _, _, cols, top, bottom = blob_kernel(sub, params, cx - x0, cy - y0, 0.3 * unit, 3)
+    if not found:
+        return
+    xs = np.nonzero(cols)[0]
+    if len(xs) < 4:
+        return
+    lx_l, lx_r = lay[uo, 0, 0], lay[uo, 3, 0]
+    ly_l, ly_r = lay[uo, 0, 1], lay[uo, 3, 1]
+    b = 0.12 * unit
+    xl = min(max(xs[0] + x0, lx_l - b), lx_l + b)
+    xr = min(max(xs[-1] + 1 + x0, lx_r - b), lx_r + b)
+    mid = (top + bottom) / 2.0 + y0
+    yl = min(max(mid[xs[0]:xs[0] + 3].mean(), ly_l - b), ly_l + b)
+    yr = min(max(mid[max(xs[-1] - 2, 0):xs[-1] + 1].mean(), ly_r - b), ly_r + b)
+    for c in _LIPS:
+        l0, l1 = lay[c, 0, 0], lay[c, 3, 0]
+        # Each curve keeps its end offsets from the outer corners (inner lip ends lie inside the mouth).
+        a0, a1 = xl + (l0 - lx_l), xr + (l1 - lx_r)
+        for j in range(4):
+            out[c, j, 0] = a0 + (lay[c, j, 0] - l0) * (a1 - a0) / max(l1 - l0, 1e-6)
+        out[c, 0, 1] = yl + (lay[c, 0, 1] - ly_l)
+        out[c, 3, 1] = yr + (lay[c, 3, 1] - ly_r)
+    skin = _median_of_boxes(value, boxes[5:7])
+    itop, ibot = _opening(mask, cols, top, bottom, value[y0:y1, x0:x1], skin, unit)
+    # Outer lips: the blob's outline; inner lips: the opening inside it (bounds: fraction of the unit).
+    profiles = (top, bottom, itop, ibot)
+    low = (-0.15, -0.15, -0.15, -0.15)
+    high = (0.15, 0.8, 0.15, 0.8)
+    for i in range(4):
+        c = _LIPS[i]
+        ok, y = _sample_profile(out[c], cols, profiles[i] + y0, x0)
+        if ok:
+            d = _mid_shift(out[c], y)
+            for j in (1, 2):
+                out[c, j, 1] = min(max(out[c, j, 1] + d, lay[c, j, 1] + low[i] * unit), lay[c, j, 1] + high[i] * unit)
+    for j in (1, 2):
+        out[ui, j, 1] = min(max(out[ui, j, 1], out[uo, j, 1]), out[lo, j, 1])
+        out[li, j, 1] = min(max(out[li, j, 1], out[ui, j, 1]), out[lo, j, 1])
+
+
+@nb.njit(**_JIT)
+def outline_features(C: np.ndarray, raw: np.ndarray, value: np.ndarray, layout: np.ndarray,
+                     mouth_offset: np.ndarray, boxes: np.ndarray, blob_params: np.ndarray,
+                     unit: float) -> np.ndarray:
+    """The layout moved onto each feature's blob, within plausible bounds (§3.2).
+
+    Parameters
+    ----------
+    C : (H, W) float32
+        Feature intensity of the crop after the contrast enhancement, in [0, 1].
+    raw : (H, W) float32
+        Eq. 1's intensity before the contrast enhancement.
+    value : (H, W) uint8
+        HSV value V of the crop.
+    layout : (C, 4, 2) float64
+        The performer's neutral curves placed in the crop (crop pixels).
+    mouth_offset : (2,) float64
+        Crop pixels the mouth sits off the layout.
+    boxes : (len(BOX_NAMES), 4) int64
+        Feature rectangles, clipped to the crop.
+    blob_params : (len(BLOB_KINDS), 5) float64
+        :meth:`~facepuppet.capture.blobs.BlobConfig.as_array` per kind.
+    unit : float
+        Crop pixels per face unit.
+
+    Returns
+    -------
+    (C, 4, 2) float64
+        The curves; a feature whose blob is missing keeps its layout curve (the nostrils always do).
+    """
+    out = layout.copy()
+    _eyes(C, layout, out, boxes, blob_params[0], unit)
+    _brows(raw, layout, out, boxes, blob_params[1], unit)
+    _mouth(C, value, layout, mouth_offset, out, boxes, blob_params[2], unit)
+    return out
+
+
+@nb.njit(**_JIT)
+def eye_centres(C: np.ndarray, anchors: np.ndarray, half_w: int, half_h: int):
+    """Eye centres (2, 2) in crop pixels by three mean-shift steps of C² around the expected anchors.
+
+    Returns (ok, centres): ok is False when a window holds too little feature intensity.
+    """
+    h, w = C.shape
+    out = np.zeros((2, 2))
+    least = 0.01 * (2 * half_w + 1) * (2 * half_h + 1)
+    for k in range(2):
+        cx, cy = anchors[k, 0], anchors[k, 1]
+        for _ in range(3):
+            x0 = int(np.round(cx)) - half_w
+            y0 = int(np.round(cy)) - half_h
+            xa, ya = max(x0, 0), max(y0, 0)
+            xb, yb = min(x0 + 2 * half_w + 1, w), min(y0 + 2 * half_h + 1, h)
+            total = sx = sy = 0.0
+            for y in range(ya, yb):
+                for x in range(xa, xb):
+                    v = float(C[y, x]) ** 2
+                    total += v
+                    sx += v * (x - xa)
+                    sy += v * (y - ya)
+            if total < least:
+                return False, out
+            cx, cy = sx / total + xa, sy / total + ya
+        out[k, 0], out[k, 1] = cx, cy
+    return True, out
+
+
+# OpenCV's fixed-point reciprocals for 8-bit RGB -> HSV (12 fractional bits).
+_S_DIV = np.r_[0, np.round(255.0 * 4096.0 / np.arange(1, 256))].astype(np.int64)
+_H_DIV = np.r_[0, np.round(180.0 * 4096.0 / (6.0 * np.arange(1, 256)))].astype(np.int64)
+
+
+@nb.njit(**_JIT)
+def _hsv(r: int, g: int, b: int):
+    """OpenCV's 8-bit RGB -> HSV (hue code 0..179, saturation and value 0..255), same integer arithmetic."""
+    v = max(r, g, b)
+    diff = v - min(r, g, b)
+    s = (diff * _S_DIV[v] + 2048) >> 12
+    if diff == 0:
+        return 0, s, v
+    if v == r:
+        h = g - b
+    elif v == g:
+        h = b - r + 2 * diff
+    else:
+        h = r - g + 4 * diff
+    h = (h * _H_DIV[diff] + 2048) >> 12
+    if h < 0:
+        h += 180
+    return h, s, v
+
+
+@nb.njit(**_JIT)
+def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarray, min_saturation: float,
+                      skin_boxes: np.ndarray, feature_boxes: np.ndarray):
+    """Eq. 1 and the contrast C over a face crop in one pass (see :mod:`facepuppet.capture.color`).
+
+    I = w1 (V - G) / V + (w3 - w2) V + w2 + w4 G(H) with 8-bit V and G as in
+    :func:`~facepuppet.capture.color.transform`; then C = smoothstep between the skin level (median of I
+    over ``skin_boxes``) + 15 % and + 75 % of the way to the brightest I in ``feature_boxes``.
+
+    Parameters
+    ----------
+    crop : (H, W, 3) uint8 RGB
+    weights : (4,) float
+    hue_table : (256,) float32
+    min_saturation : float
+        In [0, 1]; less saturated pixels get G = 0.
+    skin_boxes, feature_boxes : (N, 4) int64
+        Rectangles (x0, y0, x1, y1).
+
+    Returns
+    -------
+    raw : (H, W) float32
+        I of Eq. 1.
+    C : (H, W) float32
+        The contrast-enhanced intensity in [0, 1].
+    value : (H, W) uint8
+        HSV value V.
+    """
+    h, w = crop.shape[:2]
+    w1, w2, w3, w4 = weights[0], weights[1], weights[2], weights[3]
+    kv = (w3 - w2) / 255.0
+    s_min = np.uint8(min_saturation * 255.0)
+    raw = np.empty((h, w), np.float32)
+    value = np.empty((h, w), np.uint8)
+    for y in range(h):
+        for x in range(w):
+            r, g, b = np.int64(crop[y, x, 0]), np.int64(crop[y, x, 1]), np.int64(crop[y, x, 2])
+            hue, s, v = _hsv(r, g, b)
+            i = w1 * (v - g) / max(v, 1) + kv * v + w2
+            if w4 != 0.0 and s >= s_min:
+                i += w4 * hue_table[hue]
+            raw[y, x] = i
+            value[y, x] = v
+    low = _median_of_boxes(raw, skin_boxes)
+    feat = low
+    for k in range(len(feature_boxes)):
+        x0, y0, x1, y1 = feature_boxes[k]
+        for y in range(y0, y1):
+            for x in range(x0, x1):
+                feat = max(feat, raw[y, x])
+    lo = low + 0.15 * (feat - low)
+    inv = 1.0 / max(0.6 * (feat - low), 1e-6)
+    C = np.empty((h, w), np.float32)
+    for y in range(h):
+        for x in range(w):
+            t = min(max((raw[y, x] - lo) * inv, 0.0), 1.0)
+            C[y, x] = t * t * (3.0 - 2.0 * t)
+    return raw, C, value

@@ -1,0 +1,64 @@
+"""The compiled per-frame kernels against OpenCV and the numpy forms of the same maths."""
+
+import cv2
+import numpy as np
+import pytest
+
+from facepuppet.capture.blobs import close_mask, ellipse_kernel, label8, open_mask
+from facepuppet.capture.color import DEFAULT_WEIGHTS, LipHue, contrast, lip_hue_table, transform
+from facepuppet.capture.outlines import _hsv, eye_centres, feature_intensity
+
+
+@pytest.mark.parametrize("size", range(1, 10))
+def test_ellipse_kernel_is_opencvs(size):
+    assert np.array_equal(ellipse_kernel(size), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size)))
+
+
+def test_morphology_and_labels_match_opencv():
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        h, w = rng.integers(2, 40, 2)
+        m = (cv2.GaussianBlur(rng.random((h, w)), (0, 0), 1.5) > 0.5).astype(np.uint8)
+        for size in (3, 5):
+            k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
+            assert np.array_equal(close_mask(m, size), cv2.morphologyEx(m, cv2.MORPH_CLOSE, k))
+            assert np.array_equal(open_mask(m, size), cv2.morphologyEx(m, cv2.MORPH_OPEN, k))
+        labels, n = label8(m)
+        n_cv, labels_cv = cv2.connectedComponents(m, connectivity=8)
+        assert n == n_cv
+        # The same partition: each of our labels maps onto exactly one of OpenCV's.
+        pairs = {(a, b) for a, b in zip(labels.ravel(), labels_cv.ravel(), strict=True)}
+        assert len(pairs) == n
+
+
+def test_hsv_is_opencvs_8bit_conversion():
+    rgb = np.random.default_rng(0).integers(0, 256, (5000, 3)).astype(np.uint8)
+    ref = cv2.cvtColor(rgb[None], cv2.COLOR_RGB2HSV)[0]
+    ours = np.array([_hsv(int(r), int(g), int(b)) for r, g, b in rgb])
+    assert np.array_equal(ours, ref)
+
+
+def test_feature_intensity_is_eq1_then_contrast():
+    rng = np.random.default_rng(1)
+    crop = cv2.GaussianBlur(rng.integers(0, 256, (40, 50, 3)).astype(np.uint8), (0, 0), 1.0)
+    table = lip_hue_table(LipHue())
+    skin = np.array([[0, 0, 10, 10], [40, 30, 50, 40]], dtype=np.int64)
+    feats = np.array([[10, 10, 30, 20]], dtype=np.int64)
+    raw, C, value = feature_intensity(crop, DEFAULT_WEIGHTS.astype(float), table, 0.12, skin, feats)
+    ref = transform(crop, DEFAULT_WEIGHTS, table, 0.12)
+    assert np.allclose(raw, ref, atol=1e-5)
+    assert np.array_equal(value, crop.max(axis=2))
+    low = np.median(np.concatenate([ref[0:10, 0:10].ravel(), ref[30:40, 40:50].ravel()]))
+    feat = ref[10:20, 10:30].max()
+    assert np.allclose(C, contrast(ref, low + 0.15 * (feat - low), low + 0.75 * (feat - low)), atol=1e-4)
+
+
+def test_eye_centres_find_two_bright_spots():
+    C = np.zeros((60, 100), np.float32)
+    cv2.circle(C, (30, 25), 4, 1.0, -1)
+    cv2.circle(C, (71, 27), 4, 1.0, -1)
+    ok, eyes = eye_centres(C, np.array([[27.0, 22.0], [74.0, 30.0]]), 12, 8)
+    assert ok
+    assert np.allclose(eyes, [[30, 25], [71, 27]], atol=0.2)
+    ok, _ = eye_centres(np.zeros_like(C), np.array([[27.0, 22.0], [74.0, 30.0]]), 12, 8)
+    assert not ok
