@@ -50,6 +50,7 @@ _BLOB = {
 _BLOB_PARAMS = np.array([_BLOB[k].as_array() for k in BLOB_KINDS])
 _SHIFTED = np.array([not n.startswith("cheek") for n in BOX_NAMES])     # rectangles that follow the eyes
 _MOUTH_BOX = BOX_NAMES.index("mouth")
+_SNAKE_MARGIN = 8                      # crop pixels around the mouth rectangle the snakes see
 _CHEEK_L, _CHEEK_R = BOX_NAMES.index("cheek_left"), BOX_NAMES.index("cheek_right")
 _EYE_L, _EYE_R = BOX_NAMES.index("eye_left"), BOX_NAMES.index("eye_right")
 
@@ -68,6 +69,8 @@ class ColorTrackerConfig:
         Crop pixels per face unit (eye-centre distance): the work is proportional to its square.
     reestimate_every : int
         Frames between re-estimates of Eq. 1's weights by the colour network.
+    follow_iterations : int
+        Most steps of the face crop's alignment on the reference crop (ECC) per frame.
     snake : SnakeConfig
     smoothing : bool
         Smooth the face frame and the curves over time (speed-adaptive, :class:`OneEuro`).
@@ -102,6 +105,7 @@ class ColorTrackerConfig:
 
     px: float = 48.0
     reestimate_every: int = 15
+    follow_iterations: int = 3
     snake: SnakeConfig = field(default_factory=lambda: SnakeConfig(iterations=5, samples=10, offset=1.5, step=1.0))
     smoothing: bool = True
     curve_filter: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=0.3, beta=1.5, d_cutoff=1.0))
@@ -166,6 +170,7 @@ class ColorTracker:
         self._anchors_px = (np.asarray(profile.anchors) - CROP_EXTENT[:2]) * px
         self._frame: FaceFrame | None = None
         self._ref: np.ndarray | None = None
+        self._followed: np.ndarray | None = None      # crop matrix where the alignment last put the face
         self._misses = 0
         self._corr: np.ndarray | None = None
         self._unit_ref = 1.0
@@ -222,7 +227,7 @@ class ColorTracker:
         curves, self._frame, self._corr = result[0], result[1], result[5]
         self._count_tracked += 1
         if self._count_tracked % self.config.check_every == 0:
-            self._check_score(rgb)
+            self._check_score()
         curves = self._filter(curves, result[4], timestamp_ms)
         return self._features(curves, (w, h))
 
@@ -244,7 +249,8 @@ class ColorTracker:
             best = self._landmark_acquire(rgb)
         if best is None:
             return None
-        self._ref = self._grey(rgb, best[1].crop_matrix(self.config.px))
+        self._followed = best[1].crop_matrix(self.config.px)
+        self._ref = self._grey(rgb, self._followed)
         self._unit_ref = best[1].unit
         self._score = None
         return best
@@ -298,11 +304,12 @@ class ColorTracker:
             return None
         return best
 
-    def _check_score(self, rgb: np.ndarray) -> None:
-        """Now and then, how much the followed crop still looks like a face (smoothed); drop the frame if not."""
-        A = self._frame.crop_matrix(self.config.px)
-        crop = cv2.warpAffine(rgb, A, self._size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        score = self._face_score(self.intensity(crop), np.eye(2, 3))
+    def _check_score(self) -> None:
+        """Now and then, how much the followed crop still looks like a face (smoothed); drop the frame if not.
+
+        Scored on the crop just measured, with the layout placed where the eyes put it.
+        """
+        score = self._face_score(*self._last_measured)
         self._score = score if self._score is None else 0.5 * (self._score + score)
         if self._score < self.config.min_followed_score:
             log.debug("face lost: the followed crop no longer looks like a face (score %.2f)", self._score)
@@ -413,13 +420,23 @@ class ColorTracker:
         scale = float(np.hypot(*S_px[:, 0]))
         self._shift = S_px[:, 2] + (S_px[:, :2] - np.eye(2)) @ self._anchors_px[:2].mean(axis=0)
         layout = self._layout_px @ S_px[:, :2].T + S_px[:, 2]
-        curves_px = outline_features(C, self._raw, self._value, layout, self._mouth_offset, self._boxes_now(),
-                                     _BLOB_PARAMS, px * scale)
+        self._last_measured = (C, S_px)
+        boxes = self._boxes_now()
+        curves_px = outline_features(C, self._raw, self._value, layout, self._mouth_offset, boxes, _BLOB_PARAMS,
+                                     px * scale)
         idx = [_IDX[n] for n, _ in _SNAKE_CURVES]
         if idx:
-            side = np.array([s for _, s in _SNAKE_CURVES])
-            curves_px[idx] = minimise_snakes(curves_px[idx], side, np.array([0.0, -1.0]), snake_fields(C, 5),
-                                             self.config.snake, fixed_ends=np.ones(len(idx), bool))
+            # The snakes see the mouth rectangle and a margin (the fields are only computed there).
+            h, w = C.shape
+            m = _SNAKE_MARGIN
+            x0, y0, x1, y1 = boxes[_MOUTH_BOX]
+            x0, y0, x1, y1 = max(x0 - m, 0), max(y0 - m, 0), min(x1 + m, w), min(y1 + m, h)
+            if x1 - x0 > 2 * m and y1 - y0 > 2 * m:
+                side = np.array([s for _, s in _SNAKE_CURVES])
+                o = np.array([x0, y0], dtype=float)
+                curves_px[idx] = minimise_snakes(curves_px[idx] - o, side, np.array([0.0, -1.0]),
+                                                 snake_fields(C[y0:y1, x0:x1], 5), self.config.snake,
+                                                 fixed_ends=np.ones(len(idx), bool)) + o
         # How much the crop looks like a face: needed to pick among candidates and when the skin is not seen.
         score = self._face_score(C, S_px) if (not follow or not skin) else 1.0
         if not skin and score < self.config.min_skinless_score and not self._skinless_ok:
@@ -462,22 +479,30 @@ class ColorTracker:
         return eyes if found else None
 
     def _grey(self, rgb: np.ndarray, A: np.ndarray) -> np.ndarray:
-        """The face crop of crop matrix ``A`` at half resolution, grey, float32 (for the ECC alignment)."""
+        """The face crop of crop matrix ``A`` at half resolution, grey, float32 (for the alignment)."""
         w, h = self._size
         small = cv2.warpAffine(rgb, A * 0.5, (w // 2, h // 2), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         return cv2.cvtColor(small, cv2.COLOR_RGB2GRAY).astype(np.float32)
 
     def _follow(self, rgb: np.ndarray, A: np.ndarray) -> FaceFrame | None:
-        """The face frame moved by aligning the face crop on the reference crop (ECC, affine)."""
-        warp = np.eye(2, 3, dtype=np.float32)
+        """The face frame moved by aligning the face crop on the reference crop (ECC, affine).
+
+        The search starts where the alignment put the face in the last frame, so a couple of steps suffice.
+        """
+        # First guess: the face where the alignment last put it (reference half-res crop -> current one).
+        Ainv = cv2.invertAffineTransform(A)
+        guess = np.vstack([A, [0.0, 0.0, 1.0]]) @ np.vstack([cv2.invertAffineTransform(self._followed), [0, 0, 1]])
+        guess[:2, 2] *= 0.5
         try:
-            _, warp = cv2.findTransformECC(self._ref, self._grey(rgb, A), warp, cv2.MOTION_AFFINE,
-                                           (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 15, 1e-3), None, 3)
+            _, warp = cv2.findTransformECC(self._ref, self._grey(rgb, A), guess[:2].astype(np.float32),
+                                           cv2.MOTION_AFFINE, (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS,
+                                                               self.config.follow_iterations, 1e-3), None, 3)
         except cv2.error:
             return None
         W = warp.astype(float)
         W[:, 2] *= 2.0
-        Ainv = cv2.invertAffineTransform(A)
+        self._followed = cv2.invertAffineTransform(np.column_stack([Ainv[:, :2] @ W[:, :2],
+                                                                    Ainv[:, :2] @ W[:, 2] + Ainv[:, 2]]))
         M = Ainv[:, :2] @ W[:, :2]
         t = Ainv[:, :2] @ W[:, 2] + Ainv[:, 2]
         px = self.config.px

@@ -18,6 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import cv2
+import numba as nb
 import numpy as np
 
 from facepuppet.capture.curves import bernstein
@@ -188,18 +189,66 @@ def minimise_snakes(ctrl: np.ndarray, side: np.ndarray, up: np.ndarray, fields: 
         fe = np.asarray(fixed_ends, dtype=bool)
         mask[fe, 0] = 0.0
         mask[fe, 3] = 0.0
-    step = np.float32(config.step)
-    n = config.samples
-    for _ in range(config.iterations):
-        pts = np.einsum("sj,cjd->csd", b, x)
-        allp = np.concatenate([pts, pts + shift, pts - shift]).reshape(-1, 2)
-        vals = _sample(fields, allp).reshape(3, c, n, 5)
-        # dE/dv at each sample (Eqs. 3-4): the offset curves move rigidly with v (constant shifts).
-        g = (-config.w_edge) * vals[0, ..., 3:5] + config.w_out * vals[2, ..., 1:3] - config.w_in * vals[1, ..., 1:3]
-        grad = np.einsum("sj,csd->cjd", b, g) * mask
-        norm = np.sqrt((grad * grad).sum(axis=2)).max(axis=1)
-        x -= grad * (step / np.maximum(norm, 1e-12))[:, None, None]
-        step *= np.float32(config.decay)
+    return _descend(x, shift, mask, b.astype(np.float64), np.ascontiguousarray(fields, dtype=np.float32),
+                    float(config.w_edge), float(config.w_in), float(config.w_out), float(config.step),
+                    float(config.decay), int(config.iterations))
+
+
+@nb.njit(cache=True, nogil=True)
+def _lookup(fields: np.ndarray, x: float, y: float, out: np.ndarray) -> None:
+    """Bilinear lookup of all fields at (x, y); pixels outside the image read as 0."""
+    h, w, k = fields.shape
+    fx, fy = np.floor(x), np.floor(y)
+    x0, y0 = int(fx), int(fy)
+    ax, ay = x - fx, y - fy
+    out[:] = 0.0
+    for dy in range(2):
+        yy = y0 + dy
+        if yy < 0 or yy >= h:
+            continue
+        wy = ay if dy else 1.0 - ay
+        for dx in range(2):
+            xx = x0 + dx
+            if xx < 0 or xx >= w:
+                continue
+            wgt = wy * (ax if dx else 1.0 - ax)
+            for c in range(k):
+                out[c] += wgt * fields[yy, xx, c]
+
+
+@nb.njit(cache=True, nogil=True)
+def _descend(x, shift, mask, b, fields, w_edge, w_in, w_out, step, decay, iterations):
+    """The downhill steps of :func:`minimise_snakes` (x is updated in place and returned)."""
+    c, n = shift.shape[0], b.shape[0]
+    v0 = np.empty(5)
+    vin = np.empty(5)
+    vout = np.empty(5)
+    g = np.empty((n, 2))
+    for _ in range(iterations):
+        for ci in range(c):
+            for s in range(n):
+                px = b[s, 0] * x[ci, 0, 0] + b[s, 1] * x[ci, 1, 0] + b[s, 2] * x[ci, 2, 0] + b[s, 3] * x[ci, 3, 0]
+                py = b[s, 0] * x[ci, 0, 1] + b[s, 1] * x[ci, 1, 1] + b[s, 2] * x[ci, 2, 1] + b[s, 3] * x[ci, 3, 1]
+                _lookup(fields, px, py, v0)
+                _lookup(fields, px + shift[ci, s, 0], py + shift[ci, s, 1], vin)
+                _lookup(fields, px - shift[ci, s, 0], py - shift[ci, s, 1], vout)
+                # dE/dv at the sample (Eqs. 3-4): the offset curves move rigidly with v (constant shifts).
+                for d in range(2):
+                    g[s, d] = -w_edge * v0[3 + d] + w_out * vout[1 + d] - w_in * vin[1 + d]
+            norm = 0.0
+            grad = np.zeros((4, 2))
+            for j in range(4):
+                for d in range(2):
+                    acc = 0.0
+                    for s in range(n):
+                        acc += b[s, j] * g[s, d]
+                    grad[j, d] = acc * mask[ci, j, 0]
+                norm = max(norm, np.sqrt(grad[j, 0] ** 2 + grad[j, 1] ** 2))
+            scale = step / max(norm, 1e-12)
+            for j in range(4):
+                for d in range(2):
+                    x[ci, j, d] -= grad[j, d] * scale
+        step *= decay
     return x
 
 
