@@ -105,7 +105,7 @@ class ColorTrackerConfig:
 
     px: float = 48.0
     reestimate_every: int = 15
-    follow_iterations: int = 3
+    follow_iterations: int = 2
     snake: SnakeConfig = field(default_factory=lambda: SnakeConfig(iterations=5, samples=10, offset=1.5, step=1.0))
     smoothing: bool = True
     curve_filter: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=0.3, beta=1.5, d_cutoff=1.0))

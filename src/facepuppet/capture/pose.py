@@ -17,6 +17,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import lru_cache
 
+import numba as nb
 import numpy as np
 
 from facepuppet.capture.curves import CURVE_NAMES, POINT_SAMPLES, bernstein, curve_points, fit_bezier
@@ -330,6 +331,11 @@ def estimate_pose(image_points: Mapping[str, np.ndarray] | np.ndarray, frame_siz
         return FailedPose(f"head pose needs at least 4 finite landmarks, got {len(uv)}")
     K = _camera(float(frame_size[0]), float(frame_size[1]), None if focal is None else float(focal))
     if previous:
+        # From last frame's pose a few Gauss-Newton steps on the same reprojection error converge.
+        R, t, ok = _refine_pose(xyz, uv, K, np.asarray(previous.rotation, dtype=float),
+                                np.asarray(previous.translation, dtype=float))
+        if ok:
+            return _checked_pose(R, t, K, xyz, uv, names)
         rvec0 = cv2.Rodrigues(np.asarray(previous.rotation, dtype=float))[0]
         tvec0 = np.asarray(previous.translation, dtype=float).reshape(3, 1).copy()
     else:
@@ -349,8 +355,11 @@ def estimate_pose(image_points: Mapping[str, np.ndarray] | np.ndarray, frame_siz
         return FailedPose(f"head pose solver failed ({str(e).strip().splitlines()[-1]})")
     if not ok or not (np.isfinite(rvec).all() and np.isfinite(tvec).all()):
         return FailedPose("head pose solver did not converge")
-    R = cv2.Rodrigues(rvec)[0]
-    t = tvec.reshape(3)
+    return _checked_pose(cv2.Rodrigues(rvec)[0], tvec.reshape(3), K, xyz, uv, names)
+
+
+def _checked_pose(R: np.ndarray, t: np.ndarray, K: np.ndarray, xyz: np.ndarray, uv: np.ndarray,
+                  names: tuple[str, ...]) -> HeadPose | FailedPose:
     if t[2] <= 0:
         return FailedPose("head pose puts the head behind the camera")
     proj = (xyz @ R.T + t) @ K.T
@@ -359,6 +368,63 @@ def estimate_pose(image_points: Mapping[str, np.ndarray] | np.ndarray, frame_siz
     if scale is not None and err > _MAX_REPROJECTION * scale:
         return FailedPose(f"generic face does not fit the landmarks (mean reprojection error {err:.1f} px)")
     return HeadPose(R, t, K, err)
+
+
+@nb.njit(cache=True, nogil=True)
+def _refine_pose(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray, R0: np.ndarray, t0: np.ndarray,
+                 iterations: int = 10, tol: float = 1e-7):
+    """Gauss-Newton on the reprojection error Σ |π(K (R X + t)) − u|² from (R0, t0).
+
+    Steps are (ω, δt) with R ← exp([ω]×) R, t ← t + δt; ∂P/∂ω = −[R X]×, ∂P/∂t = I for the camera point
+    P = R X + t. Returns (R, t, converged); not converged when a point falls behind the camera or the steps
+    do not settle (then the caller starts over with the full solver).
+    """
+    n = len(xyz)
+    fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
+    R = R0.copy()
+    t = t0.copy()
+    JtJ = np.empty((6, 6))
+    Jtr = np.empty(6)
+    J = np.empty((2, 6))
+    q = np.empty(3)
+    for _ in range(iterations):
+        JtJ[:] = 0.0
+        Jtr[:] = 0.0
+        for i in range(n):
+            for r in range(3):
+                q[r] = R[r, 0] * xyz[i, 0] + R[r, 1] * xyz[i, 1] + R[r, 2] * xyz[i, 2]
+            px, py, pz = q[0] + t[0], q[1] + t[1], q[2] + t[2]
+            if pz <= 1e-9:
+                return R, t, False
+            iz = 1.0 / pz
+            res0 = fx * px * iz + cx - uv[i, 0]
+            res1 = fy * py * iz + cy - uv[i, 1]
+            # d(u, v)/dP, then dP/dω = -[q]x (columns e_k x q) and dP/dt = I.
+            a0, a2 = fx * iz, -fx * px * iz * iz
+            b1, b2 = fy * iz, -fy * py * iz * iz
+            J[0, 0], J[0, 1], J[0, 2] = a2 * q[1], a0 * q[2] - a2 * q[0], -a0 * q[1]
+            J[1, 0], J[1, 1], J[1, 2] = -b1 * q[2] + b2 * q[1], -b2 * q[0], b1 * q[0]
+            J[0, 3], J[0, 4], J[0, 5] = a0, 0.0, a2
+            J[1, 3], J[1, 4], J[1, 5] = 0.0, b1, b2
+            for k in range(6):
+                Jtr[k] += J[0, k] * res0 + J[1, k] * res1
+                for m in range(6):
+                    JtJ[k, m] += J[0, k] * J[0, m] + J[1, k] * J[1, m]
+        for k in range(6):
+            JtJ[k, k] += 1e-9
+        step = -np.linalg.solve(JtJ, Jtr)
+        w0, w1, w2 = step[0], step[1], step[2]
+        theta = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+        W = np.array([[0.0, -w2, w1], [w2, 0.0, -w0], [-w1, w0, 0.0]])
+        if theta > 1e-12:
+            E = np.eye(3) + np.sin(theta) / theta * W + (1.0 - np.cos(theta)) / theta ** 2 * (W @ W)
+        else:
+            E = np.eye(3) + W
+        R = E @ R
+        t = t + step[3:]
+        if theta < tol and np.sqrt(step[3] ** 2 + step[4] ** 2 + step[5] ** 2) < tol * max(abs(t[2]), 1.0):
+            return R, t, True
+    return R, t, False
 
 
 def _eye_span(names, uv) -> float | None:
