@@ -198,7 +198,8 @@ def blob_kernel(intensity: np.ndarray, params: np.ndarray, near_x: float, near_y
                 m[y, x] = 1
     if radius > 0:
         m = close_mask(m, 2 * radius + 1)
-    m = close_mask(m, close)
+    if close != 2 * radius + 1:              # a closing is idempotent: the same one twice changes nothing
+        m = close_mask(m, close)
     m = open_mask(m, opn)
     labels, n = label8(m)
     area = np.zeros(n, np.int64)
@@ -243,19 +244,14 @@ def blob_kernel(intensity: np.ndarray, params: np.ndarray, near_x: float, near_y
     centroid = np.zeros(2)
     if best == 0:
         return False, mask, 0, box[0], centroid, cols, top, bottom
-    for x in range(w):
-        first = -1
-        last = -1
-        for y in range(h):
+    for y in range(h):
+        for x in range(w):
             if labels[y, x] == best:
                 mask[y, x] = 1
-                if first < 0:
-                    first = y
-                last = y
-        if first >= 0:
-            cols[x] = True
-            top[x] = first
-            bottom[x] = last + 1
+                if not cols[x]:
+                    cols[x] = True
+                    top[x] = y
+                bottom[x] = y + 1
     centroid[0] = sx[best] / area[best]
     centroid[1] = sy[best] / area[best]
     return True, mask, area[best], box[best].copy(), centroid, cols, top, bottom

@@ -71,6 +71,8 @@ class ColorTrackerConfig:
         Frames between re-estimates of Eq. 1's weights by the colour network.
     follow_iterations : int
         Most steps of the face crop's alignment on the reference crop (ECC) per frame.
+    follow_scale : float
+        Resolution of the crops aligned, as a fraction of the tracker's crop.
     snake : SnakeConfig
     smoothing : bool
         Smooth the face frame and the curves over time (speed-adaptive, :class:`OneEuro`).
@@ -106,6 +108,7 @@ class ColorTrackerConfig:
     px: float = 48.0
     reestimate_every: int = 15
     follow_iterations: int = 2
+    follow_scale: float = 0.35
     snake: SnakeConfig = field(default_factory=lambda: SnakeConfig(iterations=5, samples=10, offset=1.5, step=1.0))
     smoothing: bool = True
     curve_filter: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=0.3, beta=1.5, d_cutoff=1.0))
@@ -479,9 +482,11 @@ class ColorTracker:
         return eyes if found else None
 
     def _grey(self, rgb: np.ndarray, A: np.ndarray) -> np.ndarray:
-        """The face crop of crop matrix ``A`` at half resolution, grey, float32 (for the alignment)."""
+        """The face crop of crop matrix ``A`` at ``follow_scale`` resolution, grey, float32 (for the alignment)."""
         w, h = self._size
-        small = cv2.warpAffine(rgb, A * 0.5, (w // 2, h // 2), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        f = self.config.follow_scale
+        small = cv2.warpAffine(rgb, A * f, (int(w * f), int(h * f)), flags=cv2.INTER_LINEAR,
+                               borderMode=cv2.BORDER_REPLICATE)
         return cv2.cvtColor(small, cv2.COLOR_RGB2GRAY).astype(np.float32)
 
     def _follow(self, rgb: np.ndarray, A: np.ndarray) -> FaceFrame | None:
@@ -492,7 +497,7 @@ class ColorTracker:
         # First guess: the face where the alignment last put it (reference half-res crop -> current one).
         Ainv = cv2.invertAffineTransform(A)
         guess = np.vstack([A, [0.0, 0.0, 1.0]]) @ np.vstack([cv2.invertAffineTransform(self._followed), [0, 0, 1]])
-        guess[:2, 2] *= 0.5
+        guess[:2, 2] *= self.config.follow_scale
         try:
             _, warp = cv2.findTransformECC(self._ref, self._grey(rgb, A), guess[:2].astype(np.float32),
                                            cv2.MOTION_AFFINE, (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS,
@@ -500,7 +505,7 @@ class ColorTracker:
         except cv2.error:
             return None
         W = warp.astype(float)
-        W[:, 2] *= 2.0
+        W[:, 2] /= self.config.follow_scale
         self._followed = cv2.invertAffineTransform(np.column_stack([Ainv[:, :2] @ W[:, :2],
                                                                     Ainv[:, :2] @ W[:, 2] + Ainv[:, 2]]))
         M = Ainv[:, :2] @ W[:, :2]

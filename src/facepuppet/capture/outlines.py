@@ -67,6 +67,14 @@ def _median(a: np.ndarray) -> float:
 
 
 @nb.njit(**_JIT)
+def _quantile_sorted(d: np.ndarray, q: float) -> float:
+    """Quantile ``q`` in [0, 1] of sorted data, interpolated linearly (numpy's default rule)."""
+    pos = q * (len(d) - 1)
+    i = min(int(pos), len(d) - 2) if len(d) > 1 else 0
+    return d[i] + (pos - i) * (d[min(i + 1, len(d) - 1)] - d[i])
+
+
+@nb.njit(**_JIT)
 def _mid_shift(ctrl: np.ndarray, y: np.ndarray) -> float:
     """The common vertical shift of the middle control points that best moves the curve onto the profile ``y``
     (median over the central samples)."""
@@ -172,9 +180,9 @@ def _brows(raw: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: np.ndarr
         # Brows are often fainter than the eyes and lips the contrast C is scaled to: normalise the raw
         # intensity of Eq. 1 within the rectangle (forehead skin at the median).
         sub = raw[y0:y1, x0:x1].astype(np.float64)
-        flat = sub.ravel()
-        lo_v = np.percentile(flat, 50.0)
-        hi_v = np.percentile(flat, 97.0)
+        flat = np.sort(sub.ravel())
+        lo_v = _quantile_sorted(flat, 0.5)
+        hi_v = _quantile_sorted(flat, 0.97)
         norm = (sub - lo_v) / max(hi_v - lo_v, 1e-6)
         c = _BROW[side]
         ex = 0.25 * layout[c, :, 0].sum()
@@ -207,7 +215,7 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
             if mask[y, x]:
                 lips[n] = value[y, x]
                 n += 1
-    level = np.percentile(lips[:n], 75.0) if n else skin
+    level = _quantile_sorted(np.sort(lips[:n]), 0.75) if n else skin
     thr = 0.5 * min(level, skin)
     opening = np.zeros((h, w), np.uint8)
     crease = np.empty(w, np.float32)
