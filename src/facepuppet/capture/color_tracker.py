@@ -168,6 +168,8 @@ class ColorTracker:
         self._boxes = {k: _box_px(np.asarray(b) + np.r_[shift.get(k, (0, 0)), shift.get(k, (0, 0))], px)
                        for k, b in FEATURE_BOXES.items()}
         self._box_table = np.array([self._boxes[n] for n in BOX_NAMES], dtype=np.int64)
+        self._box_moves = np.zeros_like(self._box_table)
+        self._box_limits = np.array([self._size * 2], dtype=np.int64)
         self._eye_window = (int(round(config.eye_window[0] * px)), int(round(config.eye_window[1] * px)))
         self._layout_px = (np.asarray(profile.layout) - CROP_EXTENT[:2]) * px
         self._anchors_px = (np.asarray(profile.anchors) - CROP_EXTENT[:2]) * px
@@ -527,9 +529,9 @@ class ColorTracker:
     def _boxes_now(self) -> np.ndarray:
         """The feature rectangles (len(BOX_NAMES), 4) of this frame: moved with the layout's eyes (translation
         only; the mouth also by its offset), clipped to the crop. The cheeks stay where the frame puts them."""
-        d = np.zeros((len(BOX_NAMES), 2))
-        d[_SHIFTED] = self._shift
-        d[_MOUTH_BOX] += self._mouth_offset
-        d = np.tile(np.round(d).astype(np.int64), 2)
-        w, h = self._size
-        return np.clip(self._box_table + d, 0, [w, h, w, h])
+        sx, sy = round(self._shift[0]), round(self._shift[1])
+        mx, my = round(self._shift[0] + self._mouth_offset[0]), round(self._shift[1] + self._mouth_offset[1])
+        d = self._box_moves
+        d[_SHIFTED] = (sx, sy, sx, sy)
+        d[_MOUTH_BOX] = (mx, my, mx, my)
+        return np.clip(self._box_table + d, 0, self._box_limits)

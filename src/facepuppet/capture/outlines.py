@@ -442,13 +442,16 @@ def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarr
     s_min = np.uint8(min_saturation * 255.0)
     raw = np.empty((h, w), np.float32)
     value = np.empty((h, w), np.uint8)
+    use_hue = w4 != 0.0
     for y in range(h):
         for x in range(w):
             r, g, b = np.int64(crop[y, x, 0]), np.int64(crop[y, x, 1]), np.int64(crop[y, x, 2])
-            hue, s, v = _hsv(r, g, b)
+            v = max(r, g, b)
             i = w1 * (v - g) / max(v, 1) + kv * v + w2
-            if w4 != 0.0 and s >= s_min:
-                i += w4 * hue_table[hue]
+            if use_hue:
+                hue, s, _ = _hsv(r, g, b)
+                if s >= s_min:
+                    i += w4 * hue_table[hue]
             raw[y, x] = i
             value[y, x] = v
     low = _median_of_boxes(raw, skin_boxes)
