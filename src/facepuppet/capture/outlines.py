@@ -43,6 +43,11 @@ _LID_UP = np.array([_I["eye_right_upper"], _I["eye_left_upper"]])
 _LID_LO = np.array([_I["eye_right_lower"], _I["eye_left_lower"]])
 _LIPS = np.array([_I["lip_upper_outer"], _I["lip_lower_outer"], _I["lip_upper_inner"], _I["lip_lower_inner"]])
 
+#: Bounds (face units) of the lips' middle points around the layout: outer upper, outer lower, inner upper,
+#: inner lower (the lower lips move down with the jaw).
+_LIP_LOW = np.array([-0.15, -0.15, -0.15, -0.15])
+_LIP_HIGH = np.array([0.15, 0.8, 0.15, 0.8])
+
 _K = 12                                                 # boundary samples per curve
 _B = bernstein(np.linspace(0.0, 1.0, _K))               # (K, 4)
 _MID = _B[:, 1] + _B[:, 2]                              # how much a common shift of the middle points moves
@@ -152,7 +157,7 @@ def _eyes(C: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: np.ndarray,
         up, lo = _LID_UP[side], _LID_LO[side]
         ex = 0.125 * (layout[up, :, 0].sum() + layout[lo, :, 0].sum())
         ey = 0.125 * (layout[up, :, 1].sum() + layout[lo, :, 1].sum())
-        sub = C[y0:y1, x0:x1]
+        sub = np.ascontiguousarray(C[y0:y1, x0:x1])
         found, mask, _, _, _, cols, top, bottom = blob_kernel(sub, params, ex - x0, ey - y0, 0.25 * unit, 3)
         if not found:
             continue
@@ -183,7 +188,7 @@ def _brows(raw: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: np.ndarr
         flat = np.sort(sub.ravel())
         lo_v = _quantile_sorted(flat, 0.5)
         hi_v = _quantile_sorted(flat, 0.97)
-        norm = (sub - lo_v) / max(hi_v - lo_v, 1e-6)
+        norm = ((sub - lo_v) / max(hi_v - lo_v, 1e-6)).astype(np.float32)
         c = _BROW[side]
         ex = 0.25 * layout[c, :, 0].sum()
         ey = 0.25 * layout[c, :, 1].sum()
@@ -275,7 +280,7 @@ def _mouth(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset: np.ndar
     uo, lo, ui, li = _LIPS[0], _LIPS[1], _LIPS[2], _LIPS[3]
     cx = 0.125 * (lay[ui, :, 0].sum() + lay[li, :, 0].sum())
     cy = 0.125 * (lay[ui, :, 1].sum() + lay[li, :, 1].sum())
-    sub = C[y0:y1, x0:x1]
+    sub = np.ascontiguousarray(C[y0:y1, x0:x1])
     found, mask, _, _, _, cols, top, bottom = blob_kernel(sub, params, cx - x0, cy - y0, 0.3 * unit, 3)
     if not found:
         return
@@ -301,16 +306,16 @@ def _mouth(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset: np.ndar
     skin = _median_of_boxes(value, boxes[5:7])
     itop, ibot = _opening(mask, cols, top, bottom, value[y0:y1, x0:x1], skin, unit)
     # Outer lips: the blob's outline; inner lips: the opening inside it (bounds: fraction of the unit).
-    profiles = (top, bottom, itop, ibot)
-    low = (-0.15, -0.15, -0.15, -0.15)
-    high = (0.15, 0.8, 0.15, 0.8)
+    profiles = np.empty((4, len(top)), np.float32)
+    profiles[0], profiles[1], profiles[2], profiles[3] = top, bottom, itop, ibot
     for i in range(4):
         c = _LIPS[i]
         ok, y = _sample_profile(out[c], cols, profiles[i] + y0, x0)
         if ok:
             d = _mid_shift(out[c], y)
             for j in (1, 2):
-                out[c, j, 1] = min(max(out[c, j, 1] + d, lay[c, j, 1] + low[i] * unit), lay[c, j, 1] + high[i] * unit)
+                lo_b, hi_b = lay[c, j, 1] + _LIP_LOW[i] * unit, lay[c, j, 1] + _LIP_HIGH[i] * unit
+                out[c, j, 1] = min(max(out[c, j, 1] + d, lo_b), hi_b)
     for j in (1, 2):
         out[ui, j, 1] = min(max(out[ui, j, 1], out[uo, j, 1]), out[lo, j, 1])
         out[li, j, 1] = min(max(out[li, j, 1], out[ui, j, 1]), out[lo, j, 1])

@@ -371,6 +371,32 @@ def _checked_pose(R: np.ndarray, t: np.ndarray, K: np.ndarray, xyz: np.ndarray, 
 
 
 @nb.njit(cache=True, nogil=True)
+def _solve_spd(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """x with A x = b for a small symmetric positive definite A (Cholesky, A = L Lᵀ)."""
+    n = len(b)
+    L = np.zeros((n, n))
+    for i in range(n):
+        for j in range(i + 1):
+            s = A[i, j]
+            for k in range(j):
+                s -= L[i, k] * L[j, k]
+            L[i, j] = np.sqrt(max(s, 1e-300)) if i == j else s / L[j, j]
+    y = np.empty(n)
+    for i in range(n):
+        s = b[i]
+        for k in range(i):
+            s -= L[i, k] * y[k]
+        y[i] = s / L[i, i]
+    x = np.empty(n)
+    for i in range(n - 1, -1, -1):
+        s = y[i]
+        for k in range(i + 1, n):
+            s -= L[k, i] * x[k]
+        x[i] = s / L[i, i]
+    return x
+
+
+@nb.njit(cache=True, nogil=True)
 def _refine_pose(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray, R0: np.ndarray, t0: np.ndarray,
                  iterations: int = 10, tol: float = 1e-7):
     """Gauss-Newton on the reprojection error Σ |π(K (R X + t)) − u|² from (R0, t0).
@@ -412,7 +438,7 @@ def _refine_pose(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray, R0: np.ndarray,
                     JtJ[k, m] += J[0, k] * J[0, m] + J[1, k] * J[1, m]
         for k in range(6):
             JtJ[k, k] += 1e-9
-        step = -np.linalg.solve(JtJ, Jtr)
+        step = _solve_spd(JtJ, -Jtr)
         w0, w1, w2 = step[0], step[1], step[2]
         theta = np.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
         W = np.array([[0.0, -w2, w1], [w2, 0.0, -w0], [-w1, w0, 0.0]])
