@@ -62,3 +62,49 @@ def test_eye_centres_find_two_bright_spots():
     assert np.allclose(eyes, [[30, 25], [71, 27]], atol=0.2)
     ok, _ = eye_centres(np.zeros_like(C), np.array([[27.0, 22.0], [74.0, 30.0]]), 12, 8)
     assert not ok
+
+
+def test_ycrcb_and_skin_fraction_match_opencv_and_the_skin_model():
+    from facepuppet.capture.face import SkinModel, skin_probability
+    from facepuppet.capture.outlines import _cr_cb, skin_fraction
+
+    rng = np.random.default_rng(4)
+    rgb = rng.integers(0, 256, (5000, 3)).astype(np.uint8)
+    ref = cv2.cvtColor(rgb[None], cv2.COLOR_RGB2YCrCb)[0]
+    assert np.array_equal(np.array([_cr_cb(int(r), int(g), int(b)) for r, g, b in rgb]), ref)
+    crop = rng.integers(60, 230, (50, 60, 3)).astype(np.uint8)
+    boxes = np.array([[0, 0, 20, 20], [30, 10, 50, 30]], dtype=np.int64)
+    model = SkinModel()
+    mask = skin_probability(np.concatenate([crop[0:20, 0:20], crop[10:30, 30:50]], axis=1), model)
+    assert skin_fraction(crop, boxes, model.table()) == pytest.approx((mask > 0).mean())
+
+
+def test_snake_fields_are_opencvs_blur_and_central_differences():
+    from facepuppet.capture.snakes import snake_fields
+
+    img = np.random.default_rng(5).random((37, 52)).astype(np.float32)
+    for blur in (0, 3, 5):
+        b = cv2.GaussianBlur(img, (blur, blur), 0) if blur > 1 else img
+        ix = cv2.Sobel(b, cv2.CV_32F, 1, 0, ksize=1, scale=0.5)
+        iy = cv2.Sobel(b, cv2.CV_32F, 0, 1, ksize=1, scale=0.5)
+        mag = ix * ix + iy * iy
+        ref = np.dstack([b, ix, iy, cv2.Sobel(mag, cv2.CV_32F, 1, 0, ksize=1, scale=0.5),
+                         cv2.Sobel(mag, cv2.CV_32F, 0, 1, ksize=1, scale=0.5)])
+        assert np.allclose(snake_fields(img, blur), ref, atol=1e-6)
+
+
+def test_move_boxes_rounds_shifts_and_clips_to_the_crop():
+    from facepuppet.capture.outlines import move_boxes
+
+    boxes = np.array([[10, 10, 20, 20], [0, 0, 5, 5], [90, 40, 100, 50]], dtype=np.int64)
+    out = move_boxes(boxes, np.array([True, False, True]), 2, np.array([2.4, -1.6]), np.array([0.3, 0.2]), 96, 48)
+    assert out.tolist() == [[12, 8, 22, 18], [0, 0, 5, 5], [93, 39, 96, 48]]
+
+
+def test_two_point_similarity_is_the_least_squares_one():
+    from facepuppet.capture.color_tracker import _similarity_of_pairs
+    from facepuppet.capture.face import similarity_from_points
+
+    src = np.array([[10.0, 20.0], [40.0, 24.0]])
+    dst = np.array([[13.0, 18.0], [44.0, 29.0]])
+    assert np.allclose(_similarity_of_pairs(src, dst), similarity_from_points(src, dst))

@@ -30,7 +30,16 @@ from facepuppet.capture.face import (
 )
 from facepuppet.capture.features import FrameFeatures
 from facepuppet.capture.one_euro import OneEuro, OneEuroConfig
-from facepuppet.capture.outlines import BLOB_KINDS, BOX_NAMES, eye_centres, feature_intensity, outline_features
+from facepuppet.capture.outlines import (
+    BLOB_KINDS,
+    BOX_NAMES,
+    eye_centres,
+    feature_intensity,
+    move_boxes,
+    outline_features,
+    skin_fraction,
+)
+from facepuppet.capture.pose import STABLE_FEATURES, estimate_pose, points_in_head, pose_point_index
 from facepuppet.capture.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
 from facepuppet.capture.snakes import LOWER, UPPER, SnakeConfig, minimise_snakes, snake_fields
 from facepuppet.errors import FacepuppetError
@@ -50,6 +59,7 @@ _BLOB = {
 _BLOB_PARAMS = np.array([_BLOB[k].as_array() for k in BLOB_KINDS])
 _SHIFTED = np.array([not n.startswith("cheek") for n in BOX_NAMES])     # rectangles that follow the eyes
 _MOUTH_BOX = BOX_NAMES.index("mouth")
+_POSE_POINTS = pose_point_index(STABLE_FEATURES)         # the stable landmarks among the curve ends
 _SNAKE_MARGIN = 8                      # crop pixels around the mouth rectangle the snakes see
 _CHEEK_L, _CHEEK_R = BOX_NAMES.index("cheek_left"), BOX_NAMES.index("cheek_right")
 _EYE_L, _EYE_R = BOX_NAMES.index("eye_left"), BOX_NAMES.index("eye_right")
@@ -168,8 +178,9 @@ class ColorTracker:
         self._boxes = {k: _box_px(np.asarray(b) + np.r_[shift.get(k, (0, 0)), shift.get(k, (0, 0))], px)
                        for k, b in FEATURE_BOXES.items()}
         self._box_table = np.array([self._boxes[n] for n in BOX_NAMES], dtype=np.int64)
-        self._box_moves = np.zeros_like(self._box_table)
-        self._box_limits = np.array([self._size * 2], dtype=np.int64)
+        self._cheek_boxes = self._box_table[[_CHEEK_L, _CHEEK_R]]
+        self._eye_boxes = self._box_table[[_EYE_L, _EYE_R]]
+        self._skin_table = profile.skin.table()
         self._eye_window = (int(round(config.eye_window[0] * px)), int(round(config.eye_window[1] * px)))
         self._layout_px = (np.asarray(profile.layout) - CROP_EXTENT[:2]) * px
         self._anchors_px = (np.asarray(profile.anchors) - CROP_EXTENT[:2]) * px
@@ -363,12 +374,10 @@ class ColorTracker:
         return smooth @ F[:, :2].T + F[:, 2]
 
     def _features(self, curves: np.ndarray, size: tuple[int, int]) -> FrameFeatures:
-        from facepuppet.capture.pose import STABLE_FEATURES, estimate_pose, points_in_head, pose_points_from_curves
-
-        pts = pose_points_from_curves(curves, STABLE_FEATURES)
-        pose = estimate_pose(pts, size, previous=self._pose)
+        uv = curves[_POSE_POINTS]
+        pose = estimate_pose(uv, size, previous=self._pose)
         if not pose:
-            pose = estimate_pose(pts, size)
+            pose = estimate_pose(uv, size)
         self._pose = pose if pose else None
         if pose:
             points = points_in_head(curves, pose)
@@ -385,7 +394,7 @@ class ColorTracker:
         self._count += 1
         self._raw, self.intensity_last, self._value = feature_intensity(
             crop, self._weights.astype(np.float64), self._hue, self.profile.lip_hue.min_saturation,
-            self._box_table[[_CHEEK_L, _CHEEK_R]], self._box_table[[_EYE_L, _EYE_R]])
+            self._cheek_boxes, self._eye_boxes)
         return self.intensity_last
 
     def _measure(self, rgb: np.ndarray, frame: FaceFrame, *, follow: bool, gain: float):
@@ -414,7 +423,7 @@ class ColorTracker:
         smooth = follow and self._corr is not None
         corr = self._corr if smooth else np.array([1.0, 0.0, 0.0, 0.0])
         if eyes is not None:
-            S_eye = similarity_from_points(self._anchors_px[:2], eyes)
+            S_eye = _similarity_of_pairs(self._anchors_px[:2], eyes)
             if 0.8 < float(np.hypot(*S_eye[:, 0])) < 1.25:
                 v = np.array([S_eye[0, 0], S_eye[1, 0], S_eye[0, 2], S_eye[1, 2]])
                 corr = corr + gain * (v - corr) if smooth else v
@@ -519,19 +528,21 @@ class ColorTracker:
         return FaceFrame(origin, axis)
 
     def _skin_ok(self, crop: np.ndarray) -> bool:
-        from facepuppet.capture.face import skin_probability
-
-        x0, y0, x1, y1 = self._boxes["cheek_left"]
-        a0, b0, a1, b1 = self._boxes["cheek_right"]
-        sk = skin_probability(np.concatenate([crop[y0:y1, x0:x1], crop[b0:b1, a0:a1]], axis=1), self.profile.skin)
-        return float(sk.mean()) > 0.3 * 255
+        """Whether the cheeks of the crop look like skin (the profile's skin model, over 30 % of the pixels)."""
+        return skin_fraction(crop, self._cheek_boxes, self._skin_table) > 0.3
 
     def _boxes_now(self) -> np.ndarray:
         """The feature rectangles (len(BOX_NAMES), 4) of this frame: moved with the layout's eyes (translation
         only; the mouth also by its offset), clipped to the crop. The cheeks stay where the frame puts them."""
-        sx, sy = round(self._shift[0]), round(self._shift[1])
-        mx, my = round(self._shift[0] + self._mouth_offset[0]), round(self._shift[1] + self._mouth_offset[1])
-        d = self._box_moves
-        d[_SHIFTED] = (sx, sy, sx, sy)
-        d[_MOUTH_BOX] = (mx, my, mx, my)
-        return np.clip(self._box_table + d, 0, self._box_limits)
+        return move_boxes(self._box_table, _SHIFTED, _MOUTH_BOX, self._shift, self._mouth_offset, *self._size)
+
+
+def _similarity_of_pairs(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
+    """The similarity (2, 3) taking the two points ``src`` (2, 2) exactly onto ``dst`` (2, 2)."""
+    (sx0, sy0), (sx1, sy1) = src
+    (dx0, dy0), (dx1, dy1) = dst
+    ux, uy, vx, vy = sx1 - sx0, sy1 - sy0, dx1 - dx0, dy1 - dy0
+    den = max(ux * ux + uy * uy, 1e-12)
+    a, b = (ux * vx + uy * vy) / den, (ux * vy - uy * vx) / den
+    mx, my = 0.5 * (sx0 + sx1), 0.5 * (sy0 + sy1)
+    return np.array([[a, -b, 0.5 * (dx0 + dx1) - (a * mx - b * my)], [b, a, 0.5 * (dy0 + dy1) - (b * mx + a * my)]])

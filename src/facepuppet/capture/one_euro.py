@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba as nb
 import numpy as np
 
 __all__ = ["OneEuroConfig", "OneEuro", "smoothing_factor"]
@@ -79,8 +80,27 @@ class OneEuro:
             self._x, self._dx = x.copy(), np.zeros(x.shape[:-1])
             return x.copy()
         cfg = self.config
-        speed = np.linalg.norm(x - self._x, axis=-1) / (dt * scale)           # (...,)
-        self._dx = self._dx + smoothing_factor(cfg.d_cutoff, dt) * (speed - self._dx)
-        a = smoothing_factor(cfg.min_cutoff + cfg.beta * self._dx, dt)[..., None]
-        self._x = self._x + a * (x - self._x)
+        flat, self._dx = _step(x.reshape(-1, x.shape[-1]), self._x.reshape(-1, x.shape[-1]), self._dx.reshape(-1),
+                               float(dt), float(scale), float(cfg.min_cutoff), float(cfg.beta), float(cfg.d_cutoff))
+        self._x = flat.reshape(x.shape)
+        self._dx = self._dx.reshape(x.shape[:-1])
         return self._x.copy()
+
+
+@nb.njit(cache=True, nogil=True)
+def _step(x: np.ndarray, last: np.ndarray, speed_last: np.ndarray, dt: float, scale: float, min_cutoff: float,
+          beta: float, d_cutoff: float):
+    """One step for (N, D) points: the filtered points and their filtered speeds (see :class:`OneEuro`)."""
+    n, d = x.shape
+    out = np.empty((n, d))
+    speeds = np.empty(n)
+    a_d = 1.0 / (1.0 + 1.0 / (2.0 * np.pi * d_cutoff * dt))
+    for i in range(n):
+        s = 0.0
+        for k in range(d):
+            s += (x[i, k] - last[i, k]) ** 2
+        speeds[i] = speed_last[i] + a_d * (np.sqrt(s) / (dt * scale) - speed_last[i])
+        a = 1.0 / (1.0 + 1.0 / (2.0 * np.pi * (min_cutoff + beta * speeds[i]) * dt))
+        for k in range(d):
+            out[i, k] = last[i, k] + a * (x[i, k] - last[i, k])
+    return out, speeds

@@ -28,7 +28,8 @@ import numpy as np
 from facepuppet.capture.blobs import blob_kernel, label8, open_mask
 from facepuppet.capture.curves import CURVE_NAMES, bernstein
 
-__all__ = ["BOX_NAMES", "BLOB_KINDS", "eye_centres", "feature_intensity", "outline_features"]
+__all__ = ["BOX_NAMES", "BLOB_KINDS", "eye_centres", "feature_intensity", "move_boxes", "outline_features",
+           "skin_fraction"]
 
 _JIT = {"cache": True, "nogil": True}
 
@@ -359,6 +360,32 @@ def outline_features(C: np.ndarray, raw: np.ndarray, value: np.ndarray, layout: 
 
 
 @nb.njit(**_JIT)
+def move_boxes(boxes: np.ndarray, moved: np.ndarray, mouth: int, shift: np.ndarray, mouth_offset: np.ndarray,
+               w: int, h: int) -> np.ndarray:
+    """Rectangles (N, 4) of a frame: the ``moved`` ones by ``shift`` (the mouth, row ``mouth``, also by
+    ``mouth_offset``), each rounded to whole pixels, then clipped to the crop (w, h)."""
+    out = boxes.copy()
+    for k in range(len(boxes)):
+        if not moved[k]:
+            continue
+        dx, dy = shift[0], shift[1]
+        if k == mouth:
+            dx += mouth_offset[0]
+            dy += mouth_offset[1]
+        ix, iy = np.int64(np.round(dx)), np.int64(np.round(dy))
+        out[k, 0] += ix
+        out[k, 2] += ix
+        out[k, 1] += iy
+        out[k, 3] += iy
+    for k in range(len(boxes)):
+        out[k, 0] = min(max(out[k, 0], 0), w)
+        out[k, 2] = min(max(out[k, 2], 0), w)
+        out[k, 1] = min(max(out[k, 1], 0), h)
+        out[k, 3] = min(max(out[k, 3], 0), h)
+    return out
+
+
+@nb.njit(**_JIT)
 def eye_centres(C: np.ndarray, anchors: np.ndarray, half_w: int, half_h: int):
     """Eye centres (2, 2) in crop pixels by three mean-shift steps of C² around the expected anchors.
 
@@ -411,6 +438,32 @@ def _hsv(r: int, g: int, b: int):
     if h < 0:
         h += 180
     return h, s, v
+
+
+@nb.njit(**_JIT)
+def _cr_cb(r: int, g: int, b: int):
+    """OpenCV's 8-bit RGB -> YCrCb (same integer arithmetic): (Y, Cr, Cb)."""
+    y = (r * 4899 + g * 9617 + b * 1868 + 8192) >> 14
+    cr = min(max(((r - y) * 11682 + (128 << 14) + 8192) >> 14, 0), 255)
+    cb = min(max(((b - y) * 9241 + (128 << 14) + 8192) >> 14, 0), 255)
+    return y, cr, cb
+
+
+@nb.njit(**_JIT)
+def skin_fraction(crop: np.ndarray, boxes: np.ndarray, table: np.ndarray) -> float:
+    """Fraction of the pixels of the rectangles whose (Cr, Cb) the skin table accepts (Y in 35..250), as
+    :func:`~facepuppet.capture.face.skin_probability`."""
+    n = 0
+    hit = 0
+    for k in range(len(boxes)):
+        x0, y0, x1, y1 = boxes[k]
+        for yy in range(y0, y1):
+            for xx in range(x0, x1):
+                y, cr, cb = _cr_cb(np.int64(crop[yy, xx, 0]), np.int64(crop[yy, xx, 1]), np.int64(crop[yy, xx, 2]))
+                n += 1
+                if 35 <= y <= 250 and table[cr, cb]:
+                    hit += 1
+    return hit / n if n else 0.0
 
 
 @nb.njit(**_JIT)

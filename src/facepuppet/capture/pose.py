@@ -34,6 +34,7 @@ __all__ = [
     "generic_points",
     "estimate_pose",
     "pose_points_from_curves",
+    "pose_point_index",
     "points_in_head",
 ]
 
@@ -140,6 +141,7 @@ def default_camera(frame_size: tuple[int, int] | np.ndarray, focal: float | None
     return _camera(w, h, None if focal is None else float(focal)).copy()
 
 
+@lru_cache(maxsize=16)
 @lru_cache(maxsize=16)
 def _camera(w: float, h: float, focal: float | None) -> np.ndarray:
     f = focal if focal is not None else max(w, h)
@@ -268,6 +270,23 @@ def pose_points_from_curves(curves: np.ndarray, names: tuple[str, ...] = STABLE_
         c, k = _CURVE_ENDPOINTS[n]
         out[n] = np.asarray(curves[index[c], k], dtype=float)
     return out
+
+
+def pose_point_index(names: tuple[str, ...] = STABLE_FEATURES,
+                     curve_names: tuple[str, ...] = CURVE_NAMES) -> tuple[np.ndarray, np.ndarray]:
+    """Where landmarks that are curve end points sit in a curves array: ``curves[index]`` is (N, 2).
+
+    Returns
+    -------
+    (N,) int, (N,) int
+        Curve index and control point index (0 or 3) of each landmark of ``names``.
+    """
+    index = {c: i for i, c in enumerate(curve_names)}
+    unknown = [n for n in names if n not in _CURVE_ENDPOINTS]
+    if unknown:
+        raise ValueError(f"landmark {unknown[0]!r} is not a curve end point; known: {', '.join(_CURVE_ENDPOINTS)}")
+    return (np.array([index[_CURVE_ENDPOINTS[n][0]] for n in names]),
+            np.array([_CURVE_ENDPOINTS[n][1] for n in names]))
 
 
 @lru_cache(maxsize=64)
@@ -454,11 +473,15 @@ def _refine_pose(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray, R0: np.ndarray,
 
 
 def _eye_span(names, uv) -> float | None:
+    pairs = _eye_pairs(tuple(names))
+    return float(max(np.hypot(*(uv[a] - uv[b])) for a, b in pairs)) if pairs else None
+
+
+@lru_cache(maxsize=64)
+def _eye_pairs(names: tuple[str, ...]) -> tuple[tuple[int, int], ...]:
     idx = {n: i for i, n in enumerate(names)}
-    spans = [np.linalg.norm(uv[idx[a]] - uv[idx[b]]) for a, b in (("eye_left_inner", "eye_left_outer"),
-                                                                  ("eye_right_inner", "eye_right_outer"))
-             if a in idx and b in idx]
-    return float(max(spans)) if spans else None
+    return tuple((idx[a], idx[b]) for a, b in (("eye_left_inner", "eye_left_outer"),
+                                                ("eye_right_inner", "eye_right_outer")) if a in idx and b in idx)
 
 
 def points_in_head(curves: np.ndarray, pose: HeadPose, frame_size: tuple[int, int] | np.ndarray | None = None,

@@ -80,15 +80,72 @@ def snake_fields(intensity: np.ndarray, blur: int = 5) -> np.ndarray:
     (H, W, 5) float32
         I, ∂I/∂x, ∂I/∂y, ∂|∇I|²/∂x, ∂|∇I|²/∂y.
     """
-    img = np.asarray(intensity, dtype=np.float32)
-    if blur > 1:
-        img = cv2.GaussianBlur(img, (blur, blur), 0)
-    ix = cv2.Sobel(img, cv2.CV_32F, 1, 0, ksize=1, scale=0.5)
-    iy = cv2.Sobel(img, cv2.CV_32F, 0, 1, ksize=1, scale=0.5)
-    mag = ix * ix + iy * iy
-    ex = cv2.Sobel(mag, cv2.CV_32F, 1, 0, ksize=1, scale=0.5)
-    ey = cv2.Sobel(mag, cv2.CV_32F, 0, 1, ksize=1, scale=0.5)
-    return cv2.merge([img, ix, iy, ex, ey])
+    img = np.ascontiguousarray(intensity, dtype=np.float32)
+    if img.ndim != 2 or min(img.shape) < 2:
+        raise ValueError(f"intensity must be a 2-D image of at least 2 x 2 pixels, got shape {img.shape}")
+    taps = cv2.getGaussianKernel(blur, 0).ravel() if blur > 1 else np.ones(1)
+    return _fields(img, taps.astype(np.float32))
+
+
+@nb.njit(cache=True, nogil=True)
+def _reflect(i: int, n: int) -> int:
+    """Index ``i`` reflected into [0, n) without repeating the edge (OpenCV's BORDER_REFLECT_101)."""
+    if i < 0:
+        i = -i
+    if i >= n:
+        i = 2 * n - 2 - i
+    return min(max(i, 0), n - 1)
+
+
+@nb.njit(cache=True, nogil=True)
+def _padded(img: np.ndarray, r: int) -> np.ndarray:
+    """``img`` with ``r`` reflected pixels on every side."""
+    h, w = img.shape
+    out = np.empty((h + 2 * r, w + 2 * r), np.float32)
+    for y in range(h + 2 * r):
+        sy = _reflect(y - r, h)
+        for x in range(w + 2 * r):
+            out[y, x] = img[sy, _reflect(x - r, w)]
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
+def _central(img: np.ndarray, out: np.ndarray, cx: int, cy: int) -> None:
+    """Central differences (f(+1) - f(-1)) / 2 along x into channel ``cx`` and along y into ``cy``."""
+    h, w = img.shape
+    p = _padded(img, 1)
+    for y in range(h):
+        for x in range(w):
+            out[y, x, cx] = 0.5 * (p[y + 1, x + 2] - p[y + 1, x])
+            out[y, x, cy] = 0.5 * (p[y + 2, x + 1] - p[y, x + 1])
+
+
+@nb.njit(cache=True, nogil=True)
+def _fields(img: np.ndarray, taps: np.ndarray) -> np.ndarray:
+    """The stack of :func:`snake_fields`: separable Gaussian blur, then central differences (both with
+    reflected borders, as OpenCV's GaussianBlur and Sobel with ksize=1 and scale 1/2)."""
+    h, w = img.shape
+    n = len(taps)
+    r = n // 2
+    p = _padded(img, r)
+    tmp = np.zeros((h + 2 * r, w), np.float32)
+    for y in range(h + 2 * r):
+        for k in range(n):
+            t = taps[k]
+            for x in range(w):
+                tmp[y, x] += t * p[y, x + k]
+    blurred = np.zeros((h, w), np.float32)
+    for y in range(h):
+        for k in range(n):
+            t = taps[k]
+            for x in range(w):
+                blurred[y, x] += t * tmp[y + k, x]
+    out = np.empty((h, w, 5), np.float32)
+    out[:, :, 0] = blurred
+    _central(blurred, out, 1, 2)
+    mag = out[:, :, 1] * out[:, :, 1] + out[:, :, 2] * out[:, :, 2]
+    _central(mag, out, 3, 4)
+    return out
 
 
 def _sample(fields: np.ndarray, pts: np.ndarray) -> np.ndarray:
