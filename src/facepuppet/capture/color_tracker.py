@@ -60,6 +60,8 @@ _BLOB_PARAMS = np.array([_BLOB[k].as_array() for k in BLOB_KINDS])
 _SHIFTED = np.array([not n.startswith("cheek") for n in BOX_NAMES])     # rectangles that follow the eyes
 _MOUTH_BOX = BOX_NAMES.index("mouth")
 _POSE_POINTS = pose_point_index(STABLE_FEATURES)         # the stable landmarks among the curve ends
+_UP = np.array([0.0, -1.0])                                # the head's up-vector in the upright crop
+_CROP_ORIGIN = np.asarray(CROP_EXTENT[:2], dtype=float)
 _SNAKE_MARGIN = 8                      # crop pixels around the mouth rectangle the snakes see
 _CHEEK_L, _CHEEK_R = BOX_NAMES.index("cheek_left"), BOX_NAMES.index("cheek_right")
 _EYE_L, _EYE_R = BOX_NAMES.index("eye_left"), BOX_NAMES.index("eye_right")
@@ -67,6 +69,9 @@ _EYE_L, _EYE_R = BOX_NAMES.index("eye_left"), BOX_NAMES.index("eye_right")
 #: Curves refined as snakes, with the side their feature lies on (Fig. 3).
 _SNAKE_CURVES = (("lip_upper_outer", UPPER),
                  ("lip_lower_outer", LOWER))
+_SNAKE_IDX = np.array([_IDX[n] for n, _ in _SNAKE_CURVES], dtype=np.int64)
+_SNAKE_SIDE = np.array([s for _, s in _SNAKE_CURVES])
+_SNAKE_FIXED = np.ones(len(_SNAKE_CURVES), bool)
 
 
 @dataclass(frozen=True)
@@ -184,6 +189,7 @@ class ColorTracker:
         self._eye_window = (int(round(config.eye_window[0] * px)), int(round(config.eye_window[1] * px)))
         self._layout_px = (np.asarray(profile.layout) - CROP_EXTENT[:2]) * px
         self._anchors_px = (np.asarray(profile.anchors) - CROP_EXTENT[:2]) * px
+        self._anchor_mid = self._anchors_px[:2].mean(axis=0)
         self._frame: FaceFrame | None = None
         self._ref: np.ndarray | None = None
         self._followed: np.ndarray | None = None      # crop matrix where the alignment last put the face
@@ -432,25 +438,24 @@ class ColorTracker:
         a, b, tx, ty = corr
         S_px = np.array([[a, -b, tx], [b, a, ty]])
         scale = float(np.hypot(*S_px[:, 0]))
-        self._shift = S_px[:, 2] + (S_px[:, :2] - np.eye(2)) @ self._anchors_px[:2].mean(axis=0)
+        self._shift = S_px[:, 2] + (S_px[:, :2] - np.eye(2)) @ self._anchor_mid
         layout = self._layout_px @ S_px[:, :2].T + S_px[:, 2]
         self._last_measured = (C, S_px)
         boxes = self._boxes_now()
         curves_px = outline_features(C, self._raw, self._value, layout, self._mouth_offset, boxes, _BLOB_PARAMS,
                                      px * scale)
-        idx = [_IDX[n] for n, _ in _SNAKE_CURVES]
-        if idx:
+        idx = _SNAKE_IDX
+        if len(idx):
             # The snakes see the mouth rectangle and a margin (the fields are only computed there).
             h, w = C.shape
             m = _SNAKE_MARGIN
             x0, y0, x1, y1 = boxes[_MOUTH_BOX]
             x0, y0, x1, y1 = max(x0 - m, 0), max(y0 - m, 0), min(x1 + m, w), min(y1 + m, h)
             if x1 - x0 > 2 * m and y1 - y0 > 2 * m:
-                side = np.array([s for _, s in _SNAKE_CURVES])
                 o = np.array([x0, y0], dtype=float)
-                curves_px[idx] = minimise_snakes(curves_px[idx] - o, side, np.array([0.0, -1.0]),
+                curves_px[idx] = minimise_snakes(curves_px[idx] - o, _SNAKE_SIDE, _UP,
                                                  snake_fields(C[y0:y1, x0:x1], 5), self.config.snake,
-                                                 fixed_ends=np.ones(len(idx), bool)) + o
+                                                 fixed_ends=_SNAKE_FIXED) + o
         # How much the crop looks like a face: needed to pick among candidates and when the skin is not seen.
         score = self._face_score(C, S_px) if (not follow or not skin) else 1.0
         if not skin and score < self.config.min_skinless_score and not self._skinless_ok:
@@ -458,8 +463,7 @@ class ColorTracker:
         # Back to image pixels.
         Ainv = cv2.invertAffineTransform(A)
         curves = curves_px @ Ainv[:, :2].T + Ainv[:, 2]
-        ext = np.asarray(CROP_EXTENT[:2])
-        S = np.column_stack([S_px[:, :2], -S_px[:, :2] @ ext + S_px[:, 2] / px + ext])     # in face units
+        S = np.column_stack([S_px[:, :2], -S_px[:, :2] @ _CROP_ORIGIN + S_px[:, 2] / px + _CROP_ORIGIN])  # face units
         measured = frame.compose(S)
         return curves, measured, eyes is not None, score, measured, corr
 
