@@ -87,6 +87,19 @@ def test_blank_frame_is_lost_then_the_face_is_reacquired(clip):
     assert _nme(back.curves, ref[10]).mean() < 0.1
 
 
+@pytest.mark.parametrize("light", ["dim", "warm"])
+def test_tracks_the_clip_in_a_changed_light(clip, light):
+    """The clip darkened to 35 %, or lit warm (red up, blue down): the face is found and followed as in the
+    clip's own light (without the light evened out, these lose the face or lock onto the wrong region)."""
+    frames, ref = clip
+    gain = {"dim": np.array([0.35, 0.35, 0.35]), "warm": np.array([1.3, 0.95, 0.65])}[light]
+    tracker = ColorTracker()
+    got = [tracker.track(np.clip(f * gain, 0, 255).astype(np.uint8), 100 * i) for i, f in enumerate(frames)]
+    assert np.mean([g.valid for g in got]) >= 0.95
+    nme = np.stack([_nme(g.curves, r) for g, r in zip(got, ref, strict=True) if g.valid])
+    assert nme.mean() < 0.08, nme.mean(axis=0)
+
+
 def test_profile_from_a_file(tmp_path, clip):
     frames, _ = clip
     path = tmp_path / "generic.npz"

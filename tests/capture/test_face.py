@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 import pytest
 
-from facepuppet.capture.face import FaceFrame, find_face, similarity_from_points, skin_probability
+from facepuppet.capture.face import FaceFrame, find_face, light_balance, similarity_from_points, skin_probability
 
 SKIN = (225, 170, 140)
 GREY = (128, 128, 128)
@@ -50,6 +50,18 @@ def test_find_face_locates_the_eyes_and_roll(roll):
 def test_no_skin_no_face():
     assert find_face(np.full((120, 160, 3), GREY, np.uint8)) is None
     assert find_face(np.zeros((120, 160, 3), np.uint8)) is None
+
+
+def test_light_balance_undoes_a_colour_cast_and_a_dim_light():
+    img, _ = _face_image()
+    cast = np.clip(img * np.array([0.3, 0.25, 0.15]), 0, 255).astype(np.uint8)   # dim and warm
+    M = light_balance(cast)
+    assert M.shape == (3, 4)
+    out = cv2.transform(cast, M).astype(float)
+    means = out.reshape(-1, 3).mean(axis=0)
+    assert np.ptp(means) < 0.03 * means.mean()                 # grey world: equal channel means
+    lo, hi = np.percentile(out, (1, 99))
+    assert lo < 10 and hi > 240                                # level stretched over the whole range
 
 
 def test_similarity_from_points_recovers_a_known_similarity(rng):

@@ -26,6 +26,7 @@ from facepuppet.capture.face import (
     FEATURE_BOXES,
     FaceFrame,
     find_face,
+    light_balance,
     similarity_from_points,
 )
 from facepuppet.capture.features import FrameFeatures
@@ -186,6 +187,7 @@ class ColorTracker:
         self._cheek_boxes = self._box_table[[_CHEEK_L, _CHEEK_R]]
         self._eye_boxes = self._box_table[[_EYE_L, _EYE_R]]
         self._skin_table = profile.skin.table()
+        self._light: np.ndarray | None = None       # colour transform evening out the light (set at acquisition)
         self._eye_window = (int(round(config.eye_window[0] * px)), int(round(config.eye_window[1] * px)))
         self._layout_px = (np.asarray(profile.layout) - CROP_EXTENT[:2]) * px
         self._anchors_px = (np.asarray(profile.anchors) - CROP_EXTENT[:2]) * px
@@ -242,7 +244,7 @@ class ColorTracker:
                 else:
                     self._unit_ref += 0.05 * (result[1].unit - self._unit_ref)
         if result is None:
-            result = self._acquire(rgb)
+            result = self._acquire(rgb, last=self._frame)
         if result is None:
             self._frame = None
             return FrameFeatures.lost(len(CURVE_NAMES), len(POINT_NAMES))
@@ -253,8 +255,13 @@ class ColorTracker:
         curves = self._filter(curves, result[4], timestamp_ms)
         return self._features(curves, (w, h))
 
-    def _acquire(self, rgb: np.ndarray):
-        """Find the face afresh: skin region and eye holes, then the candidate frame that looks most like a face."""
+    def _acquire(self, rgb: np.ndarray, last: FaceFrame | None = None):
+        """Find the face afresh: skin region and eye holes, then the candidate frame that looks most like a face.
+
+        ``last``: the frame the face was followed in until now, if it was just lost (a candidate too, in the
+        light it was followed in).
+        """
+        last_light = self._light
         self._curve_filter.reset()
         self._frame_filter.reset()
         self._pose = None
@@ -262,11 +269,26 @@ class ColorTracker:
         self._misses = 0
         self._ref = None
         self._corr = None
-        best = None
-        frame = find_face(rgb, self.profile.skin)
-        if frame is not None and frame.unit >= 6:
-            best = self._refine(rgb, [frame.compose(np.array([[s, 0.0, 0.0], [0.0, s, dy]]))
-                                      for dy in (0.0, 0.35, -0.35) for s in (1.0, 0.8, 1.25)])
+        # Skin regions of the frame as filmed and of the frame with its light's colour and level evened out
+        # (a warm, cool or dim light moves skin out of the skin model, or other things into it). The light of
+        # the hypothesis that looks most like a face is kept: the crops are evened out the same way until the
+        # face is lost.
+        best, light, seen = None, None, []
+        hypotheses = [(None, None), (light_balance(rgb), None)]
+        if last is not None:
+            hypotheses.insert(0, (last_light, last))
+        for M, frame in hypotheses:
+            if frame is None:
+                frame = find_face(rgb if M is None else cv2.transform(rgb, M), self.profile.skin)
+            if frame is None or frame.unit < 6 or any(_same_frame(frame, f) for f in seen):
+                continue
+            seen.append(frame)
+            self._light = M
+            got = self._refine(rgb, [frame.compose(np.array([[s, 0.0, 0.0], [0.0, s, dy]]))
+                                     for dy in (0.0, 0.35, -0.35) for s in (1.0, 0.8, 1.25)])
+            if got is not None and (best is None or got[3] > best[3]):
+                best, light = got, M
+        self._light = light if light is None or best is None else self._fit_light(rgb, best[1], light)
         if best is None or best[3] < self.config.min_acquire_score:
             best = self._landmark_acquire(rgb)
         if best is None:
@@ -276,6 +298,14 @@ class ColorTracker:
         self._unit_ref = best[1].unit
         self._score = None
         return best
+
+    def _fit_light(self, rgb: np.ndarray, frame: FaceFrame, M: np.ndarray) -> np.ndarray:
+        """The light transform ``M`` scaled down where it would saturate the face: the crop's 99th percentile
+        is kept at or below 230 (a stretch measured on the whole frame over-brightens a small face)."""
+        crop = cv2.warpAffine(rgb, frame.crop_matrix(self.config.px), self._size, flags=cv2.INTER_LINEAR,
+                              borderMode=cv2.BORDER_REPLICATE)
+        top = float(np.percentile(cv2.transform(crop, M), 99.0))
+        return M * min(1.0, 230.0 / max(top, 1.0))
 
     def _landmark_acquire(self, rgb: np.ndarray):
         """The face frame placed on the eyes the landmark backend finds (no skin needed), refined on §3's eyes."""
@@ -421,6 +451,8 @@ class ColorTracker:
                 frame = moved
                 A = frame.crop_matrix(px)
         crop = cv2.warpAffine(rgb, A, self._size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        if self._light is not None:
+            crop = cv2.transform(crop, self._light)
         skin = self._skin_ok(crop)
         C = self.intensity(crop)
         eyes = self._eye_centres(C)
@@ -539,6 +571,11 @@ class ColorTracker:
         """The feature rectangles (len(BOX_NAMES), 4) of this frame: moved with the layout's eyes (translation
         only; the mouth also by its offset), clipped to the crop. The cheeks stay where the frame puts them."""
         return move_boxes(self._box_table, _SHIFTED, _MOUTH_BOX, self._shift, self._mouth_offset, *self._size)
+
+
+def _same_frame(a: FaceFrame, b: FaceFrame) -> bool:
+    """Whether two face frames are within a tenth of a face unit and 10 % in size of each other."""
+    return bool(np.hypot(*(a.origin - b.origin)) < 0.1 * a.unit and abs(np.log(a.unit / b.unit)) < 0.1)
 
 
 def _similarity_of_pairs(src: np.ndarray, dst: np.ndarray) -> np.ndarray:

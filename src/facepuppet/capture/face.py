@@ -21,6 +21,7 @@ __all__ = [
     "CROP_EXTENT",
     "skin_probability",
     "find_face",
+    "light_balance",
     "similarity_from_points",
 ]
 
@@ -83,6 +84,29 @@ def skin_probability(rgb: np.ndarray, model: SkinModel = SkinModel()) -> np.ndar
     # Very dark or very bright pixels have unreliable chroma.
     mask[(ycc[..., 0] < 35) | (ycc[..., 0] > 250)] = 0
     return mask
+
+
+def light_balance(rgb: np.ndarray, work_width: int = 128) -> np.ndarray:
+    """The colour transform that evens out an image's light: channels scaled to a common mean (grey world),
+    then the 1st-99th percentile range stretched to 0-255; measured on a ``work_width``-wide thumbnail.
+
+    Parameters
+    ----------
+    rgb : (H, W, 3) uint8
+
+    Returns
+    -------
+    (3, 4) float
+        For ``cv2.transform``: out = M[:, :3] @ rgb + M[:, 3].
+    """
+    h, w = rgb.shape[:2]
+    f = min(1.0, work_width / float(w))
+    small = cv2.resize(rgb, (max(1, round(w * f)), max(1, round(h * f))), interpolation=cv2.INTER_AREA)
+    means = small.reshape(-1, 3).astype(float).mean(axis=0)
+    gains = means.mean() / np.maximum(means, 1.0)
+    lo, hi = np.percentile(small.reshape(-1, 3) * gains, (1.0, 99.0))
+    scale = 255.0 / max(hi - lo, 1.0)
+    return np.column_stack([np.diag(gains * scale), np.full(3, -lo * scale)])
 
 
 def find_face(rgb: np.ndarray, model: SkinModel = SkinModel(), *, work_width: int = 96,
