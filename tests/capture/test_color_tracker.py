@@ -126,6 +126,36 @@ def test_calibrated_profile_tracks_the_rest_of_the_clip(clip):
     assert nme.mean() < 0.08, nme.mean(axis=0)
 
 
+def _eye_opening(curves):
+    """Mean over both eyes of the lids' middles' distance, in eye spans (curves (F, C, 4, 2))."""
+    out = []
+    for eye in ("right", "left"):
+        up, lo = curves[:, _IDX[f"eye_{eye}_upper"]], curves[:, _IDX[f"eye_{eye}_lower"]]
+        span = np.linalg.norm(up[:, 3] - up[:, 0], axis=-1)
+        out.append(np.linalg.norm((lo[:, 1] + lo[:, 2] - up[:, 1] - up[:, 2]) / 2, axis=-1) / span)
+    return np.mean(out, axis=0)
+
+
+def test_profile_eyelid_model_follows_the_eyes_closing(clip):
+    """Trained on the first half of the frames, the profile's eyelid model reads the opening of the eyes on
+    the second half as MediaPipe does (performer_a half-closes them often); the blob rules alone do not."""
+    from dataclasses import replace
+
+    from facepuppet.capture.profile import calibrate_profile
+
+    frames, ref = clip
+    prof = calibrate_profile(frames[:20], ref[:20], augment=1)
+    assert set(prof.lids) == {"coef", "intercept"}
+    truth = _eye_opening(ref[20:])
+    r = {}
+    for name, p in (("model", prof), ("rules", replace(prof, lids={}))):
+        tracker = ColorTracker(p)
+        got = [tracker.track(f, 100 * i) for i, f in enumerate(frames)][20:]
+        assert all(g.valid for g in got)
+        r[name] = np.corrcoef(_eye_opening(np.stack([g.curves for g in got])), truth)[0, 1]
+    assert r["model"] > 0.6 and r["model"] > r["rules"] + 0.3, r
+
+
 #: iBUG-68 landmarks (0-based) along each eye curve, from the inner corner to the outer one.
 _IBUG_EYES = {"eye_left_upper": [42, 43, 44, 45], "eye_left_lower": [42, 47, 46, 45],
               "eye_right_upper": [39, 38, 37, 36], "eye_right_lower": [39, 40, 41, 36]}

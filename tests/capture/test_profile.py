@@ -39,15 +39,16 @@ def test_default_profile_round_trip(tmp_path):
     path = tmp_path / "p.npz"
     save_profile(path, default_profile())
     got = load_profile(path)
-    assert got.name == "generic" and got.net == {}
+    assert got.name == "generic" and got.net == {} and got.lids == {}
     np.testing.assert_array_equal(got.layout, GENERIC_LAYOUT)
     assert got.skin == default_profile().skin and got.lip_hue == default_profile().lip_hue
 
 
 def test_round_trip_with_network_predicts_the_same(tmp_path, rng):
     net = _net(rng)
+    lids = {"coef": rng.normal(size=(2, 128)), "intercept": np.array([-0.1, 0.1])}
     prof = Profile(layout=GENERIC_LAYOUT + 0.01, weights=np.array([0.5, 0.5, -1.0, 0.4]), net=net.to_arrays(),
-                   name="ann")
+                   lids=lids, name="ann")
     path = tmp_path / "ann.npz"
     save_profile(path, prof)
     got = load_profile(path)
@@ -56,6 +57,8 @@ def test_round_trip_with_network_predicts_the_same(tmp_path, rng):
     np.testing.assert_allclose(got.weights, prof.weights)
     x = rng.normal(size=(5, N_INPUTS))
     np.testing.assert_allclose(ColourNet.from_arrays(got.net).predict(x), net.predict(x), rtol=1e-6)
+    assert set(got.lids) == {"coef", "intercept"}
+    np.testing.assert_array_equal(got.lids["coef"], lids["coef"])
     with np.load(path, allow_pickle=False) as d:          # loads without pickle
         assert int(d["version"]) == PROFILE_VERSION
 

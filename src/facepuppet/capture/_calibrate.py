@@ -184,6 +184,50 @@ def calibrate(frames, curves, *, base, name: str, augment: int, seed: int, progr
         if not got:
             break
         anchors[:2] = np.median(np.stack(got), axis=0)
-    log.info("profile %s: %d frames (%d relit), lip hue %.0f deg, weights %s", name, len(crops),
-             len(crops) * augment, lip.centre, np.round(weights, 2))
-    return replace(profile, anchors=anchors)
+    # Where the tracker itself puts the eyes' corners on the labelled frames (the eyelid model's patches are
+    # cut there at run time).
+    tracker = ColorTracker(replace(profile, anchors=anchors))
+    tracked = []
+    for i, (rgb, fr) in enumerate(crops):
+        got = tracker.track(rgb, 100 * i)
+        A = fr.crop_matrix(_PX)
+        tracked.append(got.curves @ A[:, :2].T + A[:, 2] if got.valid else None)
+    lids = _lid_model(plain, curves_px, tracked, rng)
+    log.info("profile %s: %d frames (%d relit), lip hue %.0f deg, weights %s, eyelid model %s", name, len(crops),
+             len(crops) * augment, lip.centre, np.round(weights, 2), "yes" if lids else "no")
+    return replace(profile, anchors=anchors, lids=lids)
+
+
+#: Jittered copies of each labelled eye for the eyelid model: the tracker's eye corners are not the labels'.
+_LID_JITTER = 4
+#: Largest jitter of the eye's centre (spans) and of its span (ratio) in those copies.
+_LID_SHIFT, _LID_SCALE = 0.04, 0.06
+
+
+def _lid_model(crops, curves_px, tracked, rng) -> dict:
+    """The eyelid model (:mod:`facepuppet.capture.lids`) learnt on the labelled crops; empty with too few eyes.
+
+    Patches are cut around the eyes' corners as the tracker found them (``tracked``, crop pixels, None where it
+    lost the face), and jittered copies of them; targets are the labelled lids seen from there.
+    """
+    from facepuppet.capture.lids import EYES, eye_geometry, eye_patch, fit_lid_model
+
+    xs, ys = [], []
+    for crop, cpx, tpx in zip(crops, curves_px, tracked, strict=True):
+        if tpx is None:
+            continue
+        grey = cv2.cvtColor(crop, cv2.COLOR_RGB2GRAY).astype(np.float32)
+        for eye in (0, 1):
+            m, span, n = eye_geometry(tpx, eye)
+            target = np.array([(0.5 * (cpx[k, 1] + cpx[k, 2]) - m) @ n / span for k in EYES[eye]])
+            for j in range(_LID_JITTER + 1):
+                dm = rng.uniform(-_LID_SHIFT, _LID_SHIFT, 2) * span if j else np.zeros(2)
+                ds = rng.uniform(1 - _LID_SCALE, 1 + _LID_SCALE) if j else 1.0
+                x = eye_patch(grey, m + dm, span * ds, mirror=eye == 1)
+                if x is not None:
+                    # The same lids seen from the shifted centre, in the changed span.
+                    xs.append(x)
+                    ys.append((target * span - dm @ n) / (span * ds))
+    if len(xs) < 20:
+        return {}
+    return fit_lid_model(np.array(xs), np.array(ys))

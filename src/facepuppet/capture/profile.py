@@ -90,6 +90,8 @@ class Profile:
         Eq. 1's weights when there is no network (or before its first estimate).
     net : dict of str -> ndarray
         The 11-10-4 network's arrays (see :mod:`facepuppet.capture.color_net`); empty for none.
+    lids : dict of str -> ndarray
+        The eyelid model's arrays (see :mod:`facepuppet.capture.lids`); empty for none (the rules alone).
     name : str
     """
 
@@ -99,6 +101,7 @@ class Profile:
     lip_hue: LipHue = LipHue()
     weights: np.ndarray = field(default_factory=lambda: DEFAULT_WEIGHTS.copy())
     net: dict = field(default_factory=dict)
+    lids: dict = field(default_factory=dict)
     name: str = "generic"
 
 
@@ -122,6 +125,8 @@ def save_profile(path: str | os.PathLike, profile: Profile) -> None:
     }
     for k, v in profile.net.items():
         arrays[f"net_{k}"] = np.asarray(v, dtype=np.float64)
+    for k, v in profile.lids.items():
+        arrays[f"lids_{k}"] = np.asarray(v, dtype=np.float64)
     with atomic_path(path) as tmp:
         with open(tmp, "wb") as fh:
             np.savez(fh, **arrays)
@@ -160,6 +165,7 @@ def load_profile(path: str | os.PathLike) -> Profile:
             lip_hue=LipHue(float(hue[0]), float(hue[1]), float(hue[2])),
             weights=data["weights"],
             net={k[4:]: v for k, v in data.items() if k.startswith("net_")},
+            lids={k[5:]: v for k, v in data.items() if k.startswith("lids_")},
             name=str(data["name"]),
         )
     except KeyError as e:
