@@ -24,8 +24,16 @@ def test_round_trip(tmp_path, rng, d, point_names):
     np.testing.assert_array_equal(back.neutral, perf.neutral)
     np.testing.assert_array_equal(back.examples, perf.examples)
     assert back.names == perf.names and back.point_names == perf.point_names
+    assert back.noise is None
     with np.load(tmp_path / "ex.npz", allow_pickle=False) as raw:
         assert str(raw["format"]) == PERFORMER_FORMAT and int(raw["version"]) == 1
+
+
+def test_round_trip_with_noise(tmp_path, rng):
+    perf = make_performer(rng)
+    perf = Performer(perf.neutral, perf.examples, perf.names, perf.point_names, rng.uniform(0.1, 1, (5, 3)))
+    save_performer(tmp_path / "ex.npz", perf)
+    np.testing.assert_array_equal(load_performer(tmp_path / "ex.npz").noise, perf.noise)
 
 
 @pytest.mark.parametrize("change,match", [
@@ -37,6 +45,8 @@ def test_round_trip(tmp_path, rng, d, point_names):
     (dict(names=("a", "", "c")), "non-empty"),
     (dict(point_names=("x",)), "point_names must hold 5"),
     (dict(neutral=np.full((5, 3), np.nan)), "finite"),
+    (dict(noise=np.ones((5, 2))), r"noise must hold positive finite numbers with shape \(5, 3\)"),
+    (dict(noise=np.zeros((5, 3))), "noise must hold positive"),
 ])
 def test_validation(rng, change, match):
     perf = make_performer(rng)

@@ -12,6 +12,7 @@ from facepuppet.pipeline.calibrate import (
     CalibrateConfig,
     calibrate_auto,
     check_examples,
+    coordinate_noise,
     examples_from_marks,
     parse_when,
     read_marks,
@@ -164,6 +165,7 @@ def test_auto_picks_frames_by_blendshape_scores(rng):
     np.testing.assert_allclose(half[neutral[:, 0] > 1], puff[neutral[:, 0] > 1], rtol=0.05, atol=0.02)
     assert any("mouthPucker" in w for w in result.warnings)
     assert any("wiggle (not an ARKit name)" in w for w in result.warnings)
+    assert result.noise is not None and result.noise.shape == neutral.shape and (result.noise > 0).all()
 
 
 def test_auto_needs_scores(rng):
@@ -223,3 +225,19 @@ def test_auto_regression_separates_expressions_shown_together(rng):
     assert result.names == ("jawOpen", "mouthSmile")
     np.testing.assert_allclose(result.examples[0], neutral + jaw, atol=0.02)
     np.testing.assert_allclose(result.examples[1], neutral + smile, atol=0.02)
+
+
+def test_coordinate_noise_recovers_each_coordinates_noise(rng):
+    """Points = neutral + score-driven expressions + Gaussian noise of a known scale per coordinate (some
+    coordinates noiseless): the scales come back, the noiseless ones at the floor."""
+    f, p = 4000, 12
+    neutral = rng.normal(size=(p, 3))
+    scores = rng.uniform(0, 1, size=(f, 2))
+    B = rng.normal(size=(2, p, 3))
+    sigma = rng.uniform(0.05, 0.5, size=(p, 3))
+    sigma[:3] = 0.0
+    points = neutral + np.tensordot(scores, B, axes=1) + 0.2 + rng.normal(size=(f, p, 3)) * sigma
+    got = coordinate_noise(points, scores, neutral, floor=0.1)
+    floor = 0.1 * np.median(np.sqrt((sigma ** 2).mean(axis=1)))
+    np.testing.assert_allclose(got, np.sqrt(sigma ** 2 + floor ** 2), rtol=0.1)
+    assert np.allclose(got[:3], got[:3].min()) and got[:3].min() > 0

@@ -12,6 +12,7 @@ key                shape        meaning
 ``examples``       (M, P, D)    feature points of each key expression (source examples S_i)
 ``names``          (M,)         name of each key expression; pairs it with the key-model of the same name
 ``point_names``    (P,)         optional: names of the feature points (as in the track file)
+``noise``          (P, D)       optional: noise scale of each coordinate as the tracker gives it (> 0)
 =================  ===========  ==========================================================================
 
 Feature points are in head coordinates (head pose removed), the same space as the track file's ``points``.
@@ -47,12 +48,17 @@ class Performer:
         Source examples S_i.
     names : tuple of M str
     point_names : tuple of P str, or None
+    noise : (P, D) float, or None
+        Noise scale of each feature coordinate as the tracker gives it (positive; see
+        :func:`facepuppet.pipeline.calibrate.coordinate_noise`): the mapping divides displacements by it.
+        None: all coordinates alike.
     """
 
     neutral: np.ndarray
     examples: np.ndarray
     names: tuple[str, ...]
     point_names: tuple[str, ...] | None = None
+    noise: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n, e = np.shape(self.neutral), np.shape(self.examples)
@@ -71,6 +77,10 @@ class Performer:
             raise ValueError(f"example names must be unique; repeated: {', '.join(dup)}")
         if self.point_names is not None and len(self.point_names) != n[0]:
             raise ValueError(f"point_names must hold {n[0]} names, got {len(self.point_names)}")
+        if self.noise is not None:
+            z = np.asarray(self.noise)
+            if z.shape != n or not (np.all(np.isfinite(z)) and np.all(z > 0)):
+                raise ValueError(f"noise must hold positive finite numbers with shape {n}, got shape {z.shape}")
 
 
 def save_performer(path: str | os.PathLike, performer: Performer) -> None:
@@ -84,6 +94,8 @@ def save_performer(path: str | os.PathLike, performer: Performer) -> None:
     }
     if performer.point_names is not None:
         arrays["point_names"] = np.asarray(performer.point_names, dtype=str)
+    if performer.noise is not None:
+        arrays["noise"] = np.asarray(performer.noise, dtype=np.float64)
     with atomic_path(path, suffix=".npz") as tmp:
         np.savez_compressed(tmp, **arrays)
 
@@ -102,6 +114,7 @@ def load_performer(path: str | os.PathLike) -> Performer:
             examples=arrays["examples"].astype(np.float64),
             names=tuple(str(n) for n in np.atleast_1d(arrays["names"])),
             point_names=None if point_names is None else tuple(str(n) for n in np.atleast_1d(point_names)),
+            noise=arrays["noise"].astype(np.float64) if "noise" in arrays else None,
         )
     except (ValueError, TypeError) as e:
         raise FacepuppetError(f"{path}: invalid key expressions file ({e})") from e

@@ -147,6 +147,8 @@ def fit_rig(performer: Performer, character: Character, *, method: str | None = 
     params = inspect.signature(ExpressionMapper.fit).parameters
     if "names" in params or any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
         options["names"] = pairing.names  # the mapper names examples in its diagnostics
+    if performer.noise is not None:
+        options["point_scale"] = performer.noise  # coordinates the tracker follows poorly count less
     mapper = ExpressionMapper.fit(performer.neutral, examples, character.neutral, targets, **options)
     rig = Rig(mapper=mapper, character=character, names=pairing.names,
               point_names=tuple(performer.point_names or ()))

@@ -48,6 +48,11 @@ class MapperOptions:
         Relative eigenvalue threshold of the PCA (Eq. 6) and of the "cannot tell apart" diagnosis.
     names : tuple of M str, optional
         Names of the examples, used in messages and kept in the saved file.
+    point_scale : (P, D) float, optional
+        Noise scale of each feature coordinate (positive): every displacement, the examples' (Eq. 5) and the
+        frames' (Eq. 13), is divided by it before the method sees it, so coordinates a tracker follows
+        poorly count less (a generalised least squares with a diagonal noise covariance). None: all equal.
+        Scaling keeps the guarantees (neutral and examples exact).
     """
 
     method: str = DEFAULT_METHOD
@@ -59,6 +64,7 @@ class MapperOptions:
     correct: bool | None = None
     threshold: float = 1e-5
     names: tuple[str, ...] | None = None
+    point_scale: object = None
 
 
 def _array(x, name: str, ndim: int, last: int | tuple[int, ...] | None = None) -> np.ndarray:
@@ -180,7 +186,7 @@ class ExpressionMapper:
 
     def __init__(self, *, method: str, solver, source_base: np.ndarray, source_examples: np.ndarray,
                  target_base: np.ndarray, target_deltas: np.ndarray, names: tuple[str, ...] | None,
-                 options: dict) -> None:
+                 options: dict, point_scale: np.ndarray | None = None) -> None:
         self.method = method
         self._solver = solver
         self.source_base = source_base
@@ -192,6 +198,8 @@ class ExpressionMapper:
         self.n_examples, self.n_points, self.dim = source_examples.shape
         self.n_vertices = target_base.shape[0]
         self._s_flat = source_base.reshape(-1)
+        self.point_scale = point_scale
+        self._inv_scale = None if point_scale is None else 1.0 / point_scale.reshape(-1)
         self._t_flat = target_base.reshape(-1)
         self._d_flat = np.ascontiguousarray(target_deltas.reshape(self.n_examples, -1))
 
@@ -212,7 +220,7 @@ class ExpressionMapper:
             The character's key-models T_i.
         **options
             Fields of :class:`MapperOptions` (``method``, ``bounds``, ``ridge``, ``angle_ridge``,
-            ``noise_ridge``, ``shrinkage``, ``correct``, ``threshold``, ``names``).
+            ``noise_ridge``, ``shrinkage``, ``correct``, ``threshold``, ``names``, ``point_scale``).
 
         Returns
         -------
@@ -245,10 +253,18 @@ class ExpressionMapper:
                              f"got {len(se)} and {len(te)}")
         resolved = _resolve(opts, len(se))
         names = tuple(str(n) for n in opts.names) if opts.names is not None else None
+        scale = None
+        if opts.point_scale is not None:
+            scale = _array(opts.point_scale, "point_scale", 2, sb.shape[1])
+            if scale.shape != sb.shape or not (scale > 0).all():
+                raise ValueError(f"point_scale must be positive with shape {sb.shape} like source_base, got "
+                                 f"shape {scale.shape}" + ("" if scale.shape != sb.shape else " with values <= 0"))
         V = (se - sb[None]).reshape(len(se), -1)  # Eq. 5
+        if scale is not None:
+            V = V / scale.reshape(-1)
         solver = METHODS[opts.method].solver.fit(V, resolved, names)
         return cls(method=opts.method, solver=solver, source_base=sb, source_examples=se, target_base=tb,
-                   target_deltas=te - tb[None], names=names, options=resolved)
+                   target_deltas=te - tb[None], names=names, options=resolved, point_scale=scale)
 
     # ----------------------------------------------------------------------------------------- runtime
     def weights(self, points) -> np.ndarray:
@@ -273,6 +289,8 @@ class ExpressionMapper:
         if not np.isfinite(D).all():
             f = int(np.flatnonzero(~np.isfinite(D).all(1))[0])
             raise ValueError(f"points hold NaN or inf (frame {f}); map only the valid frames")
+        if self._inv_scale is not None:
+            D = D * self._inv_scale
         w = self._solver(D)
         return w[0] if single else w
 
@@ -330,7 +348,8 @@ class ExpressionMapper:
         -------
         dict of str -> ndarray
             Keys ``format``, ``version``, ``method``, ``solver``, ``source_base``, ``source_examples``,
-            ``target_base``, ``target_deltas``, ``names`` ((0,) when unnamed), ``option_*`` and ``solver_*``.
+            ``target_base``, ``target_deltas``, ``names`` ((0,) when unnamed), ``option_*``, ``solver_*`` and
+            ``point_scale`` when it was set.
         """
         out = {
             "format": np.array(FORMAT), "version": np.array(FORMAT_VERSION), "method": np.array(self.method),
@@ -339,6 +358,8 @@ class ExpressionMapper:
             "target_deltas": self.target_deltas,
             "names": np.array(self.names if self.names else [], dtype=str),
         }
+        if self.point_scale is not None:
+            out["point_scale"] = self.point_scale
         for key, value in self.options.items():
             out[f"option_{key}"] = np.asarray(value)
         for key, value in self._solver.to_arrays().items():
@@ -374,7 +395,9 @@ class ExpressionMapper:
             names = tuple(str(n) for n in arrays["names"]) or None
             sb, se = np.asarray(arrays["source_base"], float), np.asarray(arrays["source_examples"], float)
             tb, td = np.asarray(arrays["target_base"], float), np.asarray(arrays["target_deltas"], float)
+            scale = np.asarray(arrays["point_scale"], float) if "point_scale" in keys else None
             ok = (sb.ndim == 2 and se.shape[1:] == sb.shape and td.shape[1:] == tb.shape
+                  and (scale is None or (scale.shape == sb.shape and (scale > 0).all()))
                   and len(se) == len(td) and (names is None or len(names) == len(se))
                   and solver.F.shape[1] == sb.size)
         except (KeyError, ValueError, TypeError, IndexError) as e:
@@ -382,7 +405,7 @@ class ExpressionMapper:
         if not ok:
             raise FacepuppetError("damaged ExpressionMapper data (inconsistent shapes)")
         return cls(method=str(arrays["method"]), solver=solver, source_base=sb, source_examples=se,
-                   target_base=tb, target_deltas=td, names=names, options=options)
+                   target_base=tb, target_deltas=td, names=names, options=options, point_scale=scale)
 
     def save(self, path: str | os.PathLike) -> None:
         """Write the mapper to a versioned ``.npz`` file, atomically (no half-written file on failure)."""

@@ -52,6 +52,7 @@ __all__ = [
     "examples_from_marks",
     "calibrate_marks",
     "calibrate_auto",
+    "coordinate_noise",
     "calibrate_interactive",
     "check_examples",
     "save_examples",
@@ -126,6 +127,8 @@ class PerformerExamples:
         For each name (``neutral`` included), the frames ``[start, stop)`` averaged.
     warnings : tuple of str
         What :func:`check_examples` found.
+    noise : (P, D) float or None
+        ``--auto``: each coordinate's noise scale (:func:`coordinate_noise`); None otherwise.
     """
 
     neutral: np.ndarray
@@ -134,6 +137,7 @@ class PerformerExamples:
     point_names: tuple[str, ...]
     frames: dict = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
+    noise: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -546,8 +550,51 @@ def calibrate_auto(media: str | os.PathLike, names: Sequence[str], *, config: Ca
     kept = tuple(n for n in names if n in chosen)
     result = _finish(neutral, np.stack([chosen[n] for n in kept]), kept, track.point_names, frames, config)
     left_out = tuple(f"left out {x}" for x in skipped)
+    kept_groups_idx = sorted({groups.index(parts) for name, parts, _ in shown if name in chosen})
+    noise = coordinate_noise(track.points[ok], per_group[ok][:, kept_groups_idx], neutral)
     return PerformerExamples(result.neutral, result.examples, result.names, result.point_names, result.frames,
-                             result.warnings + left_out)
+                             result.warnings + left_out, noise)
+
+
+#: Floor of :func:`coordinate_noise`, as a share of the median point's noise.
+NOISE_FLOOR = 0.1
+
+
+def coordinate_noise(points: np.ndarray, scores: np.ndarray, neutral: np.ndarray,
+                     floor: float = NOISE_FLOOR) -> np.ndarray:
+    """Each feature coordinate's noise scale: how much of its motion the shown expressions' scores leave
+    unexplained.
+
+    Over the frames f, the displacements are fitted as an affine function of the scores,
+    ``x_f − S_B ≈ c + Σ_g s_g(f) B_g`` (least squares); the scale of coordinate j is the robust standard
+    deviation of its residuals, ``σ_j = (median_f r_fj² / 0.455)^½`` (0.455: the median of a χ²₁ variable),
+    raised to at least a floor, ``σ_j ← (σ_j² + (floor · σ̃)²)^½`` with σ̃ the median over points of their
+    RMS σ (a coordinate that never moves would otherwise count infinitely). The mapping divides displacements
+    by it (the mapper's ``point_scale``): tracking noise and motion no key-model explains weigh less.
+
+    Parameters
+    ----------
+    points : (F, P, D) float
+        Feature points of the frames with a face and scores.
+    scores : (F, G) float
+        Their blendshape scores, one column per expression kept.
+    neutral : (P, D) float
+
+    Returns
+    -------
+    (P, D) float, positive
+    """
+    F = len(points)
+    Y = (np.asarray(points, dtype=float) - neutral[None]).reshape(F, -1)
+    X = np.column_stack([np.asarray(scores, dtype=float), np.ones(F)])
+    coef, *_ = np.linalg.lstsq(X, Y, rcond=None)
+    resid = Y - X @ coef
+    sigma = np.sqrt(np.median(resid ** 2, axis=0) / 0.455).reshape(neutral.shape)
+    per_point = np.sqrt((sigma ** 2).mean(axis=1))
+    least = floor * float(np.median(per_point))
+    if not least > 0:
+        least = max(float(per_point.max()), 1e-9)
+    return np.sqrt(sigma ** 2 + least ** 2)
 
 
 # --- interactive calibration from a camera --------------------------------------------------------------
@@ -786,4 +833,5 @@ def save_examples(path: str | os.PathLike, result: PerformerExamples) -> None:
     """Write the performer examples file that ``facepuppet rig --performer`` reads (atomically)."""
     from facepuppet.io.performer import Performer, save_performer
 
-    save_performer(path, Performer(result.neutral, result.examples, result.names, result.point_names))
+    save_performer(path, Performer(result.neutral, result.examples, result.names, result.point_names,
+                                   result.noise))
