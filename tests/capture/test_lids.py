@@ -7,6 +7,7 @@ import pytest
 from facepuppet.capture.curves import CURVE_NAMES
 from facepuppet.capture.lids import (
     EYES,
+    PATCH_SIZE,
     apply_lid_model,
     eye_geometry,
     eye_patch,
@@ -30,7 +31,7 @@ def _curves(up: float, lo: float) -> np.ndarray:
 
 
 def _eye_image(up: float, lo: float, rng) -> np.ndarray:
-    """Grey crop (60, 120) float32: skin, and each eye's sclera and iris showing between the lids."""
+    """Crop (60, 120, 3) uint8: grey skin, and each eye's sclera and iris showing between the lids."""
     img = np.full((60, 120), 170.0, np.float32)
     for m in CENTRES:
         x = np.arange(120)[None, :] - m[0]
@@ -41,7 +42,8 @@ def _eye_image(up: float, lo: float, rng) -> np.ndarray:
         img[inside & (np.hypot(x, y) < 0.22 * SPAN)] = 60.0           # iris
         lash = np.abs(y - up * SPAN * shape / 0.75) < 1.0
         img[lash & (np.abs(x) < SPAN / 2)] = 40.0
-    return cv2.GaussianBlur(img, (0, 0), 0.8) + rng.normal(0, 4, img.shape).astype(np.float32)
+    img = cv2.GaussianBlur(img, (0, 0), 0.8) + rng.normal(0, 4, img.shape)
+    return np.repeat(np.clip(img, 0, 255).astype(np.uint8)[..., None], 3, axis=2)
 
 
 def test_geometry_of_an_eye():
@@ -77,13 +79,25 @@ def test_learnt_lids_are_read_back_from_unseen_eyes(rng):
 def test_upper_lid_never_below_the_lower():
     model = {"coef": np.zeros((2, 128)), "intercept": np.array([0.2, 0.1])}
     curves = _curves(-0.1, 0.1)
-    apply_lid_model(curves, np.full((60, 120), 100.0, np.float32), model)
+    apply_lid_model(curves, np.full((60, 120, 3), 100, np.uint8), model)
     for eye in (0, 1):
         up, lo = lid_offsets(curves, eye)
         assert lo == pytest.approx(0.1) and up == pytest.approx(0.1 - 0.02)
 
 
 def test_too_small_an_eye_is_left_alone():
-    assert eye_patch(np.zeros((20, 20), np.float32), np.array([10.0, 10.0]), 4.0, mirror=False) is None
+    assert eye_patch(np.zeros((20, 20, 3), np.uint8), np.array([10.0, 10.0]), 4.0, mirror=False) is None
     with pytest.raises(ValueError, match="offsets"):
         fit_lid_model(np.zeros((5, 128)), np.zeros((4, 2)))
+
+
+def test_patch_is_grey_normalised_and_mirrored(rng):
+    img = rng.integers(0, 256, size=(40, 60, 3), dtype=np.uint8)
+    c = np.array([30.0, 20.0])
+    a = eye_patch(img, c, 40.0, mirror=False).reshape(PATCH_SIZE[::-1])
+    b = eye_patch(img, c, 40.0, mirror=True).reshape(PATCH_SIZE[::-1])
+    np.testing.assert_allclose(a, b[:, ::-1])
+    assert abs(a.mean()) < 1e-9 and 0.9 < a.std() <= 1.0
+    grey = np.round(img @ np.array([0.299, 0.587, 0.114])).astype(np.uint8)      # BT.601 luma
+    g = eye_patch(np.repeat(grey[..., None], 3, axis=2), c, 40.0, mirror=False).reshape(PATCH_SIZE[::-1])
+    np.testing.assert_allclose(a, g, atol=0.1)           # up to rounding of the resampled bytes

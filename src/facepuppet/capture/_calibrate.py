@@ -216,14 +216,13 @@ def _lid_model(crops, curves_px, tracked, rng) -> dict:
     for crop, cpx, tpx in zip(crops, curves_px, tracked, strict=True):
         if tpx is None:
             continue
-        grey = cv2.cvtColor(crop, cv2.COLOR_RGB2GRAY).astype(np.float32)
         for eye in (0, 1):
             m, span, n = eye_geometry(tpx, eye)
             target = np.array([(0.5 * (cpx[k, 1] + cpx[k, 2]) - m) @ n / span for k in EYES[eye]])
             for j in range(_LID_JITTER + 1):
                 dm = rng.uniform(-_LID_SHIFT, _LID_SHIFT, 2) * span if j else np.zeros(2)
                 ds = rng.uniform(1 - _LID_SCALE, 1 + _LID_SCALE) if j else 1.0
-                x = eye_patch(grey, m + dm, span * ds, mirror=eye == 1)
+                x = eye_patch(crop, m + dm, span * ds, mirror=eye == 1)
                 if x is not None:
                     # The same lids seen from the shifted centre, in the changed span.
                     xs.append(x)

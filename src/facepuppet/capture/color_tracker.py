@@ -212,6 +212,7 @@ class ColorTracker:
         self._make_template()
         self._curve_filter = OneEuro(config.curve_filter)
         self._lid_filter = OneEuro(config.lid_filter)
+        self._lids = {k: np.ascontiguousarray(v, dtype=np.float64) for k, v in profile.lids.items()}
         self._frame_filter = OneEuro(config.frame_filter)
         self._last_ms: int | None = None
         self._landmarker = None          # the landmark backend, once needed (False: not available)
@@ -503,7 +504,7 @@ class ColorTracker:
                                                  fixed_ends=_SNAKE_FIXED) + o
         if self.profile.lids:
             # The performer's eyelid model reads the lids off the look of each eye (capture.lids).
-            apply_lid_model(curves_px, cv2.cvtColor(crop, cv2.COLOR_RGB2GRAY).astype(np.float32), self.profile.lids)
+            apply_lid_model(curves_px, crop, self._lids)
         # How much the crop looks like a face: needed to pick among candidates and when the skin is not seen.
         score = self._face_score(C, S_px) if (not follow or not skin) else 1.0
         if not skin and score < self.config.min_skinless_score and not self._skinless_ok:

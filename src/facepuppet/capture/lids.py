@@ -10,14 +10,16 @@ patch of each eye, normalised for level and contrast, to where the middle of eac
 Geometry, for one eye with corners c₀, c₁ (the upper lid's end points): centre m = (c₀ + c₁)/2, span
 s = |c₁ − c₀|, axis a = (c₁ − c₀)/s turned to point to the image's right, normal n = (−a_y, a_x) (down in the
 image). The lid's middle is the mean of its two middle control points, P = (P₁ + P₂)/2, and its offset is
-o = (P − m)·n / s. The patch is the axis-aligned ``PATCH_SPAN`` · s box centred on m in the face crop (the crop
-is already turned upright), resampled to ``PATCH_SIZE``; the left eye's patch is mirrored so that both eyes
-share one model. Targets (upper offset, lower offset) per eye; prediction ŷ = W x + b.
+o = (P − m)·n / s. The patch is the axis-aligned ``PATCH_SPAN`` · s box centred on m in the face crop (the
+crop is already turned upright), resampled to ``PATCH_SIZE`` and turned grey; the left eye's patch is
+mirrored so that both eyes share one model. Targets (upper offset, lower offset) per eye; prediction
+ŷ = W x + b.
 """
 
 from __future__ import annotations
 
 import cv2
+import numba as nb
 import numpy as np
 
 from facepuppet.capture.curves import CURVE_NAMES
@@ -37,13 +39,8 @@ EYES = ((_IDX["eye_right_upper"], _IDX["eye_right_lower"]), (_IDX["eye_left_uppe
 
 def eye_geometry(curves: np.ndarray, eye: int) -> tuple[np.ndarray, float, np.ndarray]:
     """Centre m (2,), span s and downward normal n (2,) of eye ``eye`` (0 right, 1 left) of curves (C, 4, 2)."""
-    up = curves[EYES[eye][0]]
-    axis = up[3] - up[0]
-    span = float(np.hypot(axis[0], axis[1]))
-    if axis[0] < 0:
-        axis = -axis
-    axis = axis / max(span, 1e-9)
-    return 0.5 * (up[0] + up[3]), span, np.array([-axis[1], axis[0]])
+    g = _geometry(np.ascontiguousarray(curves, dtype=np.float64), EYES[eye][0])
+    return g[:2].copy(), float(g[2]), g[3:].copy()
 
 
 def lid_offsets(curves: np.ndarray, eye: int) -> np.ndarray:
@@ -52,21 +49,66 @@ def lid_offsets(curves: np.ndarray, eye: int) -> np.ndarray:
     return np.array([(0.5 * (curves[k, 1] + curves[k, 2]) - m) @ n / max(s, 1e-9) for k in EYES[eye]])
 
 
-def eye_patch(grey: np.ndarray, centre: np.ndarray, span: float, mirror: bool) -> np.ndarray | None:
-    """The normalised eye patch (PATCH_SIZE[0] * PATCH_SIZE[1],) float32, or None when it would be too small.
+def eye_patch(rgb: np.ndarray, centre: np.ndarray, span: float, mirror: bool) -> np.ndarray | None:
+    """The normalised eye patch (PATCH_SIZE[0] * PATCH_SIZE[1],) float64, or None when it would be too small.
 
-    ``grey`` (H, W) float32 is the face crop's grey level; the patch is ``PATCH_SPAN`` spans wide and high around
-    ``centre``, resampled by area, mirrored left-right when ``mirror``, then given zero mean and unit variance.
+    ``rgb`` (H, W, 3) uint8 is the face crop; the patch is ``PATCH_SPAN`` spans wide and high around
+    ``centre``, resampled by area, turned grey (ITU-R BT.601 weights), mirrored left-right when ``mirror``,
+    then given zero mean and unit variance (plus one grey level, so a flat patch stays near zero).
     """
     w, h = int(round(PATCH_SPAN[0] * span)), int(round(PATCH_SPAN[1] * span))
     if w < PATCH_SIZE[0] // 2 or h < PATCH_SIZE[1] // 2:
         return None
-    p = cv2.getRectSubPix(grey, (w, h), (float(centre[0]), float(centre[1])))
-    p = cv2.resize(p, PATCH_SIZE, interpolation=cv2.INTER_AREA)
-    if mirror:
-        p = p[:, ::-1]
-    p = p - p.mean()
-    return (p / (p.std() + 1.0)).ravel()
+    p = cv2.getRectSubPix(rgb, (w, h), (float(centre[0]), float(centre[1])))
+    return _normalise(cv2.resize(p, PATCH_SIZE, interpolation=cv2.INTER_AREA), mirror)
+
+
+@nb.njit(cache=True, nogil=True)
+def _geometry(curves: np.ndarray, upper: int) -> np.ndarray:
+    """(m_x, m_y, s, n_x, n_y) of the eye whose upper lid is curve ``upper`` (module docstring)."""
+    x0, y0 = curves[upper, 0, 0], curves[upper, 0, 1]
+    ax, ay = curves[upper, 3, 0] - x0, curves[upper, 3, 1] - y0
+    s = np.sqrt(ax * ax + ay * ay)
+    if ax < 0:
+        ax, ay = -ax, -ay
+    s_safe = max(s, 1e-9)
+    out = np.empty(5)
+    out[0], out[1], out[2] = x0 + 0.5 * (curves[upper, 3, 0] - x0), y0 + 0.5 * (curves[upper, 3, 1] - y0), s
+    out[3], out[4] = -ay / s_safe, ax / s_safe
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
+def _normalise(p: np.ndarray, mirror: bool) -> np.ndarray:
+    """Grey, mirrored if asked, zero mean and unit variance (+1 grey level): (h, w, 3) uint8 -> (h * w,)."""
+    h, w = p.shape[0], p.shape[1]
+    out = np.empty(h * w)
+    for y in range(h):
+        for x in range(w):
+            sx = w - 1 - x if mirror else x
+            out[y * w + x] = 0.299 * p[y, sx, 0] + 0.587 * p[y, sx, 1] + 0.114 * p[y, sx, 2]
+    mean = out.mean()
+    out -= mean
+    sd = np.sqrt((out * out).mean())
+    out /= sd + 1.0
+    return out
+
+
+@nb.njit(cache=True, nogil=True)
+def _move_lids(curves: np.ndarray, up: int, lo: int, g: np.ndarray, x: np.ndarray, W: np.ndarray, b: np.ndarray,
+               min_gap: float) -> None:
+    """Predict the two offsets from patch ``x`` and move the lids' middle control points there (in place)."""
+    o_up = b[0] + (W[0] * x).sum()
+    o_lo = b[1] + (W[1] * x).sum()
+    o_up = min(o_up, o_lo - min_gap)
+    mx, my, s, nx, ny = g[0], g[1], g[2], g[3], g[4]
+    for k, o in ((up, o_up), (lo, o_lo)):
+        px = 0.5 * (curves[k, 1, 0] + curves[k, 2, 0]) - mx
+        py = 0.5 * (curves[k, 1, 1] + curves[k, 2, 1]) - my
+        d = o * s - (px * nx + py * ny)
+        for j in (1, 2):
+            curves[k, j, 0] += d * nx
+            curves[k, j, 1] += d * ny
 
 
 def fit_lid_model(patches: np.ndarray, offsets: np.ndarray, alpha: float = 100.0) -> dict:
@@ -87,22 +129,17 @@ def fit_lid_model(patches: np.ndarray, offsets: np.ndarray, alpha: float = 100.0
     return {"coef": model.coef_.astype(np.float64), "intercept": np.asarray(model.intercept_, dtype=np.float64)}
 
 
-def apply_lid_model(curves: np.ndarray, grey: np.ndarray, model: dict, min_gap: float = 0.02) -> None:
+def apply_lid_model(curves: np.ndarray, rgb: np.ndarray, model: dict, min_gap: float = 0.02) -> None:
     """Move the lids' middle control points of ``curves`` (C, 4, 2, crop pixels; in place) where the model reads them.
 
-    Each lid's two middle control points move together along the eye's normal so that their mean sits at the
-    predicted offset; the upper lid stays at least ``min_gap`` spans above the lower one.
+    ``rgb`` is the face crop (H, W, 3) uint8. Each lid's two middle control points move together along the
+    eye's normal so that their mean sits at the predicted offset; the upper lid stays at least ``min_gap``
+    spans above the lower one.
     """
     W, b = model["coef"], model["intercept"]
     for eye in (0, 1):
-        m, s, n = eye_geometry(curves, eye)
-        x = eye_patch(grey, m, s, mirror=eye == 1)
-        if x is None:
-            continue
-        up_o, lo_o = W @ x + b
-        up_o = min(up_o, lo_o - min_gap)
-        for k, o in zip(EYES[eye], (up_o, lo_o), strict=True):
-            now = (0.5 * (curves[k, 1] + curves[k, 2]) - m) @ n / s
-            d = (o - now) * s * n
-            curves[k, 1] += d
-            curves[k, 2] += d
+        up, lo = EYES[eye]
+        g = _geometry(curves, up)
+        x = eye_patch(rgb, g[:2], g[2], mirror=eye == 1)
+        if x is not None:
+            _move_lids(curves, up, lo, g, x, W, b, min_gap)
