@@ -44,8 +44,12 @@ def tracker_kwargs(options: TrackerOptions) -> dict:
 def get_track(media: str | os.PathLike, options: TrackerOptions, *, max_frames: int | None = None) -> Track:
     """Track ``media`` with the chosen backend (see :mod:`facepuppet.capture.tracking`)."""
     from facepuppet.capture.tracking import make_tracker, track_media
+    from facepuppet.io.frames import is_still
 
-    tracker = make_tracker(options.backend, **tracker_kwargs(options))
+    kwargs = tracker_kwargs(options)
+    if options.backend == "mediapipe" and isinstance(media, (str, os.PathLike)) and is_still(media):
+        kwargs["running_mode"] = "image"   # one photograph: no video to follow the face through
+    tracker = make_tracker(options.backend, **kwargs)
     try:
         return track_media(media, tracker, progress=options.progress is not False, max_frames=max_frames)
     finally:
