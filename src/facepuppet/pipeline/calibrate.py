@@ -32,7 +32,7 @@ import logging
 import os
 import re
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -292,8 +292,20 @@ def examples_from_marks(track: Track, marks: Sequence[Mark], config: CalibrateCo
     for mark in marks:
         averaged[mark.name], frames[mark.name] = _average(track, mark.name, mark.frame, config)
     names = tuple(m.name for m in marks if m.name != NEUTRAL)
-    return _finish(averaged[NEUTRAL], np.stack([averaged[n] for n in names]), names, track.point_names,
-                   frames, config)
+    neutral, examples = averaged[NEUTRAL], np.stack([averaged[n] for n in names])
+    result = _finish(neutral, examples, names, track.point_names, frames, config)
+    return replace(result, noise=_noise_from_examples(track, neutral, examples))
+
+
+def _noise_from_examples(track: Track, neutral: np.ndarray, examples: np.ndarray) -> np.ndarray | None:
+    """:func:`coordinate_noise` with each frame's blend of the key expressions (least squares) as its scores:
+    what the key expressions cannot express in the calibration video. None with too few frames."""
+    pts = track.points[track.valid]
+    if len(pts) < len(examples) + 10:
+        return None
+    E = (examples - neutral[None]).reshape(len(examples), -1)
+    W, *_ = np.linalg.lstsq(E.T, (pts - neutral[None]).reshape(len(pts), -1).T, rcond=None)
+    return coordinate_noise(pts, W.T, neutral)
 
 
 def _finish(neutral: np.ndarray, examples: np.ndarray, names: tuple[str, ...], point_names: Sequence[str],
@@ -556,28 +568,31 @@ def calibrate_auto(media: str | os.PathLike, names: Sequence[str], *, config: Ca
                              result.warnings + left_out, noise)
 
 
-#: Floor of :func:`coordinate_noise`, as a share of the median point's noise.
+#: Floors of :func:`coordinate_noise`: shares of the median point's noise and of the median point's motion.
 NOISE_FLOOR = 0.1
+MOTION_FLOOR = 0.05
 
 
 def coordinate_noise(points: np.ndarray, scores: np.ndarray, neutral: np.ndarray,
-                     floor: float = NOISE_FLOOR) -> np.ndarray:
+                     floor: float = NOISE_FLOOR, motion_floor: float = MOTION_FLOOR) -> np.ndarray:
     """Each feature coordinate's noise scale: how much of its motion the shown expressions' scores leave
     unexplained.
 
     Over the frames f, the displacements are fitted as an affine function of the scores,
     ``x_f − S_B ≈ c + Σ_g s_g(f) B_g`` (least squares); the scale of coordinate j is the robust standard
     deviation of its residuals, ``σ_j = (median_f r_fj² / 0.455)^½`` (0.455: the median of a χ²₁ variable),
-    raised to at least a floor, ``σ_j ← (σ_j² + (floor · σ̃)²)^½`` with σ̃ the median over points of their
-    RMS σ (a coordinate that never moves would otherwise count infinitely). The mapping divides displacements
-    by it (the mapper's ``point_scale``): tracking noise and motion no key-model explains weigh less.
+    raised to at least a floor, ``σ_j ← (σ_j² + σ₀²)^½``, ``σ₀ = max(floor · σ̃, motion_floor · b̃)`` with σ̃
+    the median over points of their RMS σ and b̃ the median over points of their RMS motion per unit score
+    (B_g): a coordinate that never moves would otherwise count infinitely, and noise far below the
+    expressions' own motion does not matter. The mapping divides displacements by it (the mapper's
+    ``point_scale``): tracking noise and motion no key-model explains weigh less.
 
     Parameters
     ----------
     points : (F, P, D) float
         Feature points of the frames with a face and scores.
     scores : (F, G) float
-        Their blendshape scores, one column per expression kept.
+        Their scores, one column per expression kept (blendshape scores, or blend weights of the examples).
     neutral : (P, D) float
 
     Returns
@@ -591,9 +606,10 @@ def coordinate_noise(points: np.ndarray, scores: np.ndarray, neutral: np.ndarray
     resid = Y - X @ coef
     sigma = np.sqrt(np.median(resid ** 2, axis=0) / 0.455).reshape(neutral.shape)
     per_point = np.sqrt((sigma ** 2).mean(axis=1))
-    least = floor * float(np.median(per_point))
+    motion = np.sqrt((coef[:-1].reshape(len(coef) - 1, *neutral.shape) ** 2).mean(axis=(0, 2)))
+    least = max(floor * float(np.median(per_point)), motion_floor * float(np.median(motion)))
     if not least > 0:
-        least = max(float(per_point.max()), 1e-9)
+        least = max(float(per_point.max()), float(motion.max()), 1e-9)
     return np.sqrt(sigma ** 2 + least ** 2)
 
 
