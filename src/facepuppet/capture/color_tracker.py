@@ -21,6 +21,7 @@ import numpy as np
 from facepuppet.capture.blobs import BlobConfig
 from facepuppet.capture.color import lip_hue_table
 from facepuppet.capture.curves import CURVE_NAMES, POINT_NAMES, bezier_points
+from facepuppet.capture.eye_anchors import calibrated_anchors, eye_centres_of, landmark_curves, shared_landmarker
 from facepuppet.capture.face import (
     CROP_EXTENT,
     FEATURE_BOXES,
@@ -44,7 +45,6 @@ from facepuppet.capture.outlines import (
 from facepuppet.capture.pose import STABLE_FEATURES, estimate_pose, points_in_head, pose_point_index
 from facepuppet.capture.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
 from facepuppet.capture.snakes import LOWER, UPPER, SnakeConfig, minimise_snakes, snake_fields
-from facepuppet.errors import FacepuppetError
 
 __all__ = ["ColorTrackerConfig", "ColorTracker"]
 
@@ -126,6 +126,15 @@ class ColorTrackerConfig:
         Path of the landmark backend's model; default ``$FACEPUPPET_FACE_LANDMARKER``.
     min_landmark_score : float
         Least likeness to a face of a frame placed by the landmark backend (-1: trust the backend).
+    anchor_calibration : float
+        At the first acquisition, move the eye anchors toward the eye blobs of a crop whose layout sits on the
+        eyes the landmark backend sees (if available; :func:`~facepuppet.capture.eye_anchors.calibrated_anchors`)
+        by this fraction of the way (0: never). One frame's evidence is weighed against the generic anchors:
+        half the way made all three shared clips closer to MediaPipe than the whole way or none.
+    anchor_scale_limits : (float, float)
+        Bounds of the calibration's scale change of the layout.
+    anchor_noise_floor : float
+        Face units an eye anchor must move by for the calibration to move the anchors at all.
     """
 
     px: float = 48.0
@@ -149,6 +158,9 @@ class ColorTrackerConfig:
     landmark_model: str | None = None
     landmark_retry: int = 10
     min_landmark_score: float = -1.0
+    anchor_calibration: float = 0.5
+    anchor_scale_limits: tuple[float, float] = (0.85, 1.15)
+    anchor_noise_floor: float = 0.03
 
 
 def _box_px(box, px):
@@ -198,8 +210,8 @@ class ColorTracker:
         self._light: np.ndarray | None = None       # colour transform evening out the light (set at acquisition)
         self._eye_window = (int(round(config.eye_window[0] * px)), int(round(config.eye_window[1] * px)))
         self._layout_px = (np.asarray(profile.layout) - CROP_EXTENT[:2]) * px
-        self._anchors_px = (np.asarray(profile.anchors) - CROP_EXTENT[:2]) * px
-        self._anchor_mid = self._anchors_px[:2].mean(axis=0)
+        self._set_anchors((np.asarray(profile.anchors) - CROP_EXTENT[:2]) * px)
+        self._calibrated = config.anchor_calibration <= 0    # anchors calibrated on the landmark backend's eyes
         self._frame: FaceFrame | None = None
         self._ref: np.ndarray | None = None
         self._followed: np.ndarray | None = None      # crop matrix where the alignment last put the face
@@ -215,12 +227,17 @@ class ColorTracker:
         self._lids = {k: np.ascontiguousarray(v, dtype=np.float64) for k, v in profile.lids.items()}
         self._frame_filter = OneEuro(config.frame_filter)
         self._last_ms: int | None = None
-        self._landmarker = None          # the landmark backend, once needed (False: not available)
+        self._landmarker = None          # the shared landmark backend, once needed (False: not available)
         self._skinless_ok = False
         self._landmark_wait = 0
         self._mouth_offset = np.zeros(2)  # crop pixels the mouth sits off the layout (set by the landmark backend)
         self._pose = None
         self._count = 0
+
+    def _set_anchors(self, anchors_px: np.ndarray) -> None:
+        """The anchors (3, 2) in crop pixels, and what is derived from them."""
+        self._anchors_px = np.asarray(anchors_px, dtype=float)
+        self._anchor_mid = self._anchors_px[:2].mean(axis=0)
 
     @staticmethod
     def _layout_shift(layout: np.ndarray) -> dict[str, np.ndarray]:
@@ -304,6 +321,11 @@ class ColorTracker:
             best = self._landmark_acquire(rgb)
         if best is None:
             return None
+        if not self._calibrated:
+            self._calibrated = True
+            placed = self._calibrate_anchors(rgb, best[1])
+            if placed is not None:
+                best = self._settle(rgb, placed) or best
         self._followed = best[1].crop_matrix(self.config.px)
         self._ref = self._grey(rgb, self._followed)
         self._unit_ref = best[1].unit
@@ -318,6 +340,45 @@ class ColorTracker:
         top = float(np.percentile(cv2.transform(crop, M), 99.0))
         return M * min(1.0, 230.0 / max(top, 1.0))
 
+    def _calibrate_anchors(self, rgb: np.ndarray, frame: FaceFrame) -> FaceFrame | None:
+        """Move the eye anchors onto the eye blobs of a crop placed by the landmark backend's eyes (the layout's
+        eyes on them); the face frame of that crop if they moved, else None. ``frame``: the frame acquired."""
+        from facepuppet.capture.landmarks import MediaPipeConfig
+
+        landmarker = shared_landmarker(self.config.landmark_model, MediaPipeConfig(refine_scales=(),
+                                                                                   tile_fractions=()))
+        curves = None if landmarker is None else landmark_curves(landmarker, rgb)
+        if curves is None:
+            return None
+        S = similarity_from_points(eye_centres_of(np.asarray(self.profile.layout)), eye_centres_of(curves))
+        placed = FaceFrame(S[:, 2].copy(), S[:, 0].copy())
+        if not _same_frame(placed, frame, 0.25, 0.2):
+            return None                     # the backend's face is not the one acquired
+        px = self.config.px
+        crop = cv2.warpAffine(rgb, placed.crop_matrix(px), self._size, flags=cv2.INTER_LINEAR,
+                              borderMode=cv2.BORDER_REPLICATE)
+        if self._light is not None:
+            crop = cv2.transform(crop, self._light)
+        C = self.intensity(crop)
+        # The blobs' centres as a fixed point of the eye search (each search takes a few mean-shift steps).
+        eyes = self._anchors_px[:2]
+        for _ in range(4):
+            ok, nxt = eye_centres(C, eyes, *self._eye_window)
+            if not ok:
+                return None
+            eyes, step = nxt, np.abs(nxt - eyes).max()
+            if step < 0.25:
+                break
+        cfg = self.config
+        new = calibrated_anchors(self._anchors_px, eyes, px, scale_limits=cfg.anchor_scale_limits,
+                                 noise_floor=cfg.anchor_noise_floor, gain=cfg.anchor_calibration)
+        if new is None:
+            return None
+        log.debug("eye anchors calibrated: %s -> %s face units", (self._anchors_px[:2] / px).round(3).tolist(),
+                  (new[:2] / px).round(3).tolist())
+        self._set_anchors(new)
+        return placed
+
     def _landmark_acquire(self, rgb: np.ndarray):
         """The face frame placed on the eyes the landmark backend finds (no skin needed), refined on §3's eyes."""
         if not self.config.landmark_acquire or self._landmarker is False:
@@ -326,20 +387,14 @@ class ColorTracker:
             self._landmark_wait -= 1
             return None
         if self._landmarker is None:
-            try:
-                from facepuppet.capture.landmarks import MediaPipeTracker
-
-                self._landmarker = MediaPipeTracker(self.config.landmark_model, running_mode="image")
-            except (FacepuppetError, ImportError, OSError) as e:
-                log.debug("no landmark backend to find faces with: %s", e)
-                self._landmarker = False
+            self._landmarker = shared_landmarker(self.config.landmark_model) or False
+            if self._landmarker is False:
                 return None
-        found = self._landmarker.track(rgb, 0)
-        if not found.valid:
+        curves = landmark_curves(self._landmarker, rgb)
+        if curves is None:
             self._landmark_wait = self.config.landmark_retry
             return None
-        eyes = np.array([np.concatenate([bezier_points(found.curves[_IDX[f"eye_{side}_{lid}"]], 16)
-                                         for lid in ("upper", "lower")]).mean(axis=0) for side in ("right", "left")])
+        eyes = eye_centres_of(curves)
         S = similarity_from_points(np.asarray(self.profile.anchors)[:2], eyes)
         frame = FaceFrame(S[:, 2].copy(), S[:, 0].copy())
         if frame.unit < 6:
@@ -347,24 +402,28 @@ class ColorTracker:
         # The mouth rectangle goes where the backend's mouth is (faces differ most in the eye-mouth distance).
         lips = [_IDX[n] for n in CURVE_NAMES if n.startswith("lip_")]
         M = frame.to_image()
-        seen = (np.concatenate([bezier_points(c, 16) for c in found.curves[lips]]).mean(axis=0) - M[:, 2]) \
+        seen = (np.concatenate([bezier_points(c, 16) for c in curves[lips]]).mean(axis=0) - M[:, 2]) \
             @ np.linalg.inv(M[:, :2]).T
         drawn = np.concatenate([bezier_points(c, 16) for c in np.asarray(self.profile.layout)[lips]]).mean(axis=0)
         self._mouth_offset = np.clip(seen - drawn, -0.3, 0.3) * self.config.px
+        best = self._settle(rgb, frame)
+        if best is None or best[3] < self.config.min_landmark_score:
+            return None
+        return best
+
+    def _settle(self, rgb: np.ndarray, frame: FaceFrame):
+        """Measure in a face frame the landmark backend placed (no skin needed): §3's eye search may only
+        nudge it (the backend's eyes are trusted); the measurement's tuple, or None."""
         self._skinless_ok = True
         try:
             best = self._refine(rgb, [frame])
-            # The landmark backend's eyes are trusted: §3's eye search may only nudge the frame.
-            if best is None or (np.hypot(*(best[1].origin - frame.origin)) > 0.1 * frame.unit
-                                or abs(np.log(best[1].unit / frame.unit)) > 0.1):
+            if best is None or not _same_frame(best[1], frame):
                 self._corr = np.array([1.0, 0.0, 0.0, 0.0])
                 best = self._measure(rgb, frame, follow=True, gain=0.0)
                 if best is not None:
                     best = best[:3] + (self._face_score(self.intensity_last, np.eye(2, 3)),) + best[4:]
         finally:
             self._skinless_ok = False
-        if best is None or best[3] < self.config.min_landmark_score:
-            return None
         return best
 
     def _check_score(self) -> None:
@@ -393,9 +452,7 @@ class ColorTracker:
         return best
 
     def close(self) -> None:
-        """Release the landmark backend if it was used."""
-        if self._landmarker:
-            self._landmarker.close()
+        """Let go of the landmark backend (shared by the process's trackers: it stays open until exit)."""
         self._landmarker = None
 
     # -- internals -------------------------------------------------------------------------------------
@@ -590,9 +647,9 @@ class ColorTracker:
         return move_boxes(self._box_table, _SHIFTED, _MOUTH_BOX, self._shift, self._mouth_offset, *self._size)
 
 
-def _same_frame(a: FaceFrame, b: FaceFrame) -> bool:
-    """Whether two face frames are within a tenth of a face unit and 10 % in size of each other."""
-    return bool(np.hypot(*(a.origin - b.origin)) < 0.1 * a.unit and abs(np.log(a.unit / b.unit)) < 0.1)
+def _same_frame(a: FaceFrame, b: FaceFrame, move: float = 0.1, size: float = 0.1) -> bool:
+    """Whether two face frames are within ``move`` face units and ``size`` in log size of each other."""
+    return bool(np.hypot(*(a.origin - b.origin)) < move * a.unit and abs(np.log(a.unit / b.unit)) < size)
 
 
 def _similarity_of_pairs(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
