@@ -49,6 +49,11 @@ _LIPS = np.array([_I["lip_upper_outer"], _I["lip_lower_outer"], _I["lip_upper_in
 _LIP_LOW = np.array([-0.15, -0.15, -0.15, -0.15])
 _LIP_HIGH = np.array([0.15, 0.8, 0.15, 0.8])
 
+#: How far below its upper edge the brow curve may lie (face units), and its largest tilt against the layout.
+_BROW_DEPTH = 0.05
+_BROW_TILT = 0.5
+_BROW_TILT_FLOOR = 0.1
+
 _K = 12                                                 # boundary samples per curve
 _B = bernstein(np.linspace(0.0, 1.0, _K))               # (K, 4)
 _MID = _B[:, 1] + _B[:, 2]                              # how much a common shift of the middle points moves
@@ -177,6 +182,23 @@ def _eyes(C: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: np.ndarray,
 
 
 @nb.njit(**_JIT)
+def _line_fit(x: np.ndarray, y: np.ndarray):
+    """Robust line y ≈ a + b (x - mean x) (Theil-Sen: the median of the pairwise slopes, then the median
+    offset); returns (a, b, mean x)."""
+    n = len(x)
+    xm = x.mean()
+    slopes = np.empty(n * (n - 1) // 2)
+    k = 0
+    for i in range(n):
+        for j in range(i + 1, n):
+            if abs(x[j] - x[i]) > 1e-9:
+                slopes[k] = (y[j] - y[i]) / (x[j] - x[i])
+                k += 1
+    b = _median(slopes[:k]) if k else 0.0
+    return _median(y - b * (x - xm)), b, xm
+
+
+@nb.njit(**_JIT)
 def _brows(raw: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: np.ndarray, params: np.ndarray,
            unit: float) -> None:
     for side in range(2):
@@ -197,11 +219,24 @@ def _brows(raw: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: np.ndarr
         if not found or box[2] - box[0] < 0.4 * (x1 - x0):
             continue
         # The brow's upper edge is sharp; its lower edge may merge with the lid's shadow.
-        edge = np.minimum(top + 0.05 * unit, (top + bottom) / 2.0) + y0
+        edge = np.minimum(top + _BROW_DEPTH * unit, (top + bottom) / 2.0) + y0
         ok, y = _sample_profile(out[c], cols, edge, x0)
-        if ok:
-            d = min(max(_median(y - _along(out[c], 1)), -0.15 * unit), 0.15 * unit)
-            out[c, :, 1] += d
+        if not ok:
+            continue
+        # The curve is tilted onto the edge (brows slant, a head turned or rolled slants them more): a robust
+        # line through the edge's offsets from the curve, over the samples above the blob.
+        xs = _along(out[c], 0)
+        inside = (xs >= box[0] + x0) & (xs <= box[2] + x0)
+        r = y - _along(out[c], 1)
+        b, xm = 0.0, xs.mean()
+        if inside.sum() >= 4:
+            b = _line_fit(xs[inside], r[inside])[1]
+            # Small tilts are the edge's noise (the layout's slant holds): only the excess over a floor counts.
+            b = min(max(b - min(max(b, -_BROW_TILT_FLOOR), _BROW_TILT_FLOOR), -_BROW_TILT), _BROW_TILT)
+        a = _median(r - b * (xs - xm))
+        a = min(max(a, -0.15 * unit), 0.15 * unit)
+        for j in range(4):
+            out[c, j, 1] += a + b * (out[c, j, 0] - xm)
 
 
 @nb.njit(**_JIT)
@@ -320,6 +355,8 @@ def _mouth(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset: np.ndar
     for j in (1, 2):
         out[ui, j, 1] = min(max(out[ui, j, 1], out[uo, j, 1]), out[lo, j, 1])
         out[li, j, 1] = min(max(out[li, j, 1], out[ui, j, 1]), out[lo, j, 1])
+        # The lower lip keeps at least the layout's thickness (a pale lower lip leaves the blob short of it).
+        out[lo, j, 1] = max(out[lo, j, 1], out[li, j, 1] + lay[lo, j, 1] - lay[li, j, 1])
 
 
 @nb.njit(**_JIT)
