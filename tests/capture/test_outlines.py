@@ -108,3 +108,56 @@ def test_two_point_similarity_is_the_least_squares_one():
     src = np.array([[10.0, 20.0], [40.0, 24.0]])
     dst = np.array([[13.0, 18.0], [44.0, 29.0]])
     assert np.allclose(_similarity_of_pairs(src, dst), similarity_from_points(src, dst))
+
+
+def _scene():
+    """A blank face crop as the generic tracker sees it: layout, rectangles and blob options in crop pixels."""
+    from facepuppet.capture.color_tracker import _BLOB_PARAMS, ColorTracker
+
+    t = ColorTracker()
+    w, h = t._size
+    return t._layout_px.copy(), t._box_table.copy(), _BLOB_PARAMS, (h, w), t.config.px
+
+
+def test_brow_curve_tilts_with_a_slanted_brow():
+    """A brow band drawn slanting down to the outside: the brow curve's ends follow the band's slant (the
+    layout's ends are level); a level band leaves the curve level."""
+    from facepuppet.capture.curves import CURVE_NAMES
+    from facepuppet.capture.outlines import BOX_NAMES, outline_features
+
+    layout, boxes, params, (h, w), px = _scene()
+    c = CURVE_NAMES.index("brow_left")
+    x0, y0, x1, y1 = boxes[BOX_NAMES.index("brow_left")]
+    for slope in (0.0, 0.3):
+        raw = np.zeros((h, w), np.float32)
+        xa, xb = x0 + 3, x1 - 3
+        ya = 0.5 * (y0 + y1) - 0.5 * slope * (xb - xa)
+        cv2.line(raw, (xa, int(round(ya))), (xb, int(round(ya + slope * (xb - xa)))), 1.0, thickness=5)
+        C = np.zeros((h, w), np.float32)
+        out = outline_features(C, raw, np.zeros((h, w), np.uint8), layout, np.zeros(2), boxes, params, px)
+        rise = (out[c, 3, 1] - out[c, 0, 1]) - (layout[c, 3, 1] - layout[c, 0, 1])
+        run = out[c, 3, 0] - out[c, 0, 0]
+        # The excess over the 0.1 tilt floor is followed (one pixel of rounding in the drawn band).
+        assert abs(rise - max(slope - 0.1, 0.0) * run) < 1.5, (slope, rise, run)
+
+
+def test_lower_outer_lip_keeps_the_layouts_thickness():
+    """A mouth blob whose lower lip is pale (the blob ends little below the crease): the lower outer lip stays
+    the layout's lip thickness below the lower inner one instead of on the blob's bottom."""
+    from facepuppet.capture.curves import CURVE_NAMES
+    from facepuppet.capture.outlines import outline_features
+
+    layout, boxes, params, (h, w), px = _scene()
+    lo, li = CURVE_NAMES.index("lip_lower_outer"), CURVE_NAMES.index("lip_lower_inner")
+    uo = CURVE_NAMES.index("lip_upper_outer")
+    C = np.zeros((h, w), np.float32)
+    xl, xr = int(layout[uo, 0, 0]), int(layout[uo, 3, 0])
+    top, crease = int(layout[uo, 1, 1]) + 4, int(layout[li, 1, 1]) + 2
+    cv2.rectangle(C, (xl, top), (xr, crease + 2), 1.0, -1)             # upper lip and a sliver of the lower
+    value = np.full((h, w), 200, np.uint8)
+    value[crease, xl:xr] = 60                                          # the crease between the lips
+    out = outline_features(C, np.zeros((h, w), np.float32), value, layout, np.zeros(2), boxes, params, px)
+    for j in (1, 2):
+        assert out[lo, j, 1] - out[li, j, 1] >= layout[lo, j, 1] - layout[li, j, 1] - 1e-9
+    # Not the blob's bottom (which is only a few pixels below the crease).
+    assert out[lo, 1, 1] > crease + 6

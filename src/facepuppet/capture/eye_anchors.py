@@ -108,5 +108,6 @@ def shared_landmarker(model_path: str | os.PathLike | None, config=None):
 def landmark_curves(landmarker, rgb: np.ndarray) -> np.ndarray | None:
     """The landmark backend's curves (C, 4, 2) in image pixels on one image, or None without a face."""
     with _LOCK:
+        landmarker.reset()                  # shared: the last user's face says nothing about this image
         found = landmarker.track(rgb, 0)
     return found.curves if found.valid else None

@@ -348,6 +348,11 @@ class MediaPipeTracker:
         return FrameFeatures(valid=True, curves=curves, rotation=pose.rotation, translation=pose.translation,
                              points=points_in_head(curves, pose), extras={"blendshapes": blendshapes})
 
+    def reset(self) -> None:
+        """Forget the face followed: the next frame is searched on its own (an unrelated image)."""
+        self._previous_pose, self._last_box, self._crop_mode = None, None, False
+        self._since_search = 10**9
+
     def close(self) -> None:
         """Release the landmarkers."""
         _OPEN.discard(self)
