@@ -49,10 +49,13 @@ _LIPS = np.array([_I["lip_upper_outer"], _I["lip_lower_outer"], _I["lip_upper_in
 _LIP_LOW = np.array([-0.15, -0.15, -0.15, -0.15])
 _LIP_HIGH = np.array([0.15, 0.8, 0.15, 0.8])
 
-#: How far below its upper edge the brow curve may lie (face units), and its largest tilt against the layout.
+#: How far below its upper edge the brow curve may lie (face units); the brow curve's largest tilt against the
+#: layout, the tilt under which it keeps the layout's (noise), and the blob thickness (face units) above which
+#: the blob is no brow band to tilt it by (a hair line, a shadow).
 _BROW_DEPTH = 0.05
 _BROW_TILT = 0.5
 _BROW_TILT_FLOOR = 0.1
+_BROW_THICK = 0.25
 
 _K = 12                                                 # boundary samples per curve
 _B = bernstein(np.linspace(0.0, 1.0, _K))               # (K, 4)
@@ -229,7 +232,8 @@ def _brows(raw: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: np.ndarr
         inside = (xs >= box[0] + x0) & (xs <= box[2] + x0)
         r = y - _along(out[c], 1)
         b, xm = 0.0, xs.mean()
-        if inside.sum() >= 4:
+        thick = _median((bottom - top)[cols])
+        if inside.sum() >= 4 and thick < _BROW_THICK * unit:
             b = _line_fit(xs[inside], r[inside])[1]
             # Small tilts are the edge's noise (the layout's slant holds): only the excess over a floor counts.
             b = min(max(b - min(max(b, -_BROW_TILT_FLOOR), _BROW_TILT_FLOOR), -_BROW_TILT), _BROW_TILT)
