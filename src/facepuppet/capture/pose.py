@@ -417,12 +417,15 @@ def _solve_spd(A: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 @nb.njit(cache=True, nogil=True)
 def _refine_pose(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray, R0: np.ndarray, t0: np.ndarray,
-                 iterations: int = 10, tol: float = 1e-7):
+                 iterations: int = 10, tol: float = 1e-5):
     """Gauss-Newton on the reprojection error Σ |π(K (R X + t)) − u|² from (R0, t0).
 
     Steps are (ω, δt) with R ← exp([ω]×) R, t ← t + δt; ∂P/∂ω = −[R X]×, ∂P/∂t = I for the camera point
     P = R X + t. Returns (R, t, converged); not converged when a point falls behind the camera or the steps
-    do not settle (then the caller starts over with the full solver).
+    do not settle (then the caller starts over with the full solver). Settled: a step under ``tol`` radians
+    and ``tol`` of the depth. With a performer's own layout the residual stays large and Gauss-Newton
+    converges only linearly: at 1e-7, 208 of performer_c's 215 frames fell back to solvePnP; at 1e-5 none
+    does, and the pose differs from solvePnP's by at most 0.014 degrees.
     """
     n = len(xyz)
     fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
