@@ -546,7 +546,7 @@ class ColorTracker:
         self._last_measured = (C, S_px)
         boxes = self._boxes_now()
         curves_px = outline_features(C, self._raw, self._value, layout, self._mouth_offset, boxes, _BLOB_PARAMS,
-                                     px * scale)
+                                     px * scale, float(self.profile.mouth_reach))
         idx = _SNAKE_IDX
         if len(idx):
             # The snakes see the mouth rectangle and a margin (the fields are only computed there).
