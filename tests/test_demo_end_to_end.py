@@ -13,6 +13,8 @@ from facepuppet.cli import main
 from gltf_validator import gltf_validator  # noqa: F401  (fixture)
 
 ERROR_BAR = 0.5
+#: Bound on the demo's error with the colour tracker (5 s, 256 px, seed 0), above the bar for now.
+COLOUR_BOUND = 1.2
 
 
 @pytest.fixture(scope="module")
@@ -93,13 +95,20 @@ def test_demo_command_says_what_tracked(tmp_path, capsys):
 
 
 def test_demo_runs_with_the_colour_tracker(tmp_path):
-    """The switch to the colour tracker stays working (its accuracy on the performer is not asserted here)."""
+    """The whole chain with the colour tracker, against ground truth.
+
+    Its error is not yet under the demo's bar (:data:`ERROR_BAR`; see the module docstring of
+    facepuppet.demo.run): this run measured 1.03 with curves 1.2 px from the true ones (0.78-0.96 on the
+    default 8 s, 320 px performances). The bound catches the colour path getting worse; lower it as the
+    tracker improves.
+    """
     from facepuppet.demo.run import DemoConfig, run_demo
     from facepuppet.io.track import load_track
 
     result = run_demo(tmp_path, DemoConfig(seconds=5.0, size=256, tracker="color", preview=False, progress=False))
     assert result.tracker == "color" and result.coverage > 0.9
-    assert np.isfinite(result.error) and np.isfinite(result.curve_error)
+    assert result.error < COLOUR_BOUND, f"relative vertex error {result.error:.3f} >= {COLOUR_BOUND}"
+    assert result.curve_error < 1.8
     assert load_track(result.files["track.npz"]).backend == "color"
     assert result.files["performer-profile.npz"].is_file()
 

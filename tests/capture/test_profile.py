@@ -19,6 +19,7 @@ from facepuppet.capture.color_net import (
 )
 from facepuppet.capture.profile import (
     GENERIC_LAYOUT,
+    GENERIC_MOUTH_REACH,
     PROFILE_VERSION,
     Profile,
     calibrate_profile,
@@ -61,6 +62,29 @@ def test_round_trip_with_network_predicts_the_same(tmp_path, rng):
     np.testing.assert_array_equal(got.lids["coef"], lids["coef"])
     with np.load(path, allow_pickle=False) as d:          # loads without pickle
         assert int(d["version"]) == PROFILE_VERSION
+
+
+def test_mouth_reach_round_trip_and_older_files(tmp_path):
+    path = tmp_path / "p.npz"
+    save_profile(path, Profile(mouth_reach=0.21))
+    assert load_profile(path).mouth_reach == pytest.approx(0.21)
+    with np.load(path) as d:
+        arrays = {k: d[k] for k in d.files if k != "mouth_reach"}
+    older = tmp_path / "older.npz"
+    np.savez(older, **arrays)
+    assert load_profile(older).mouth_reach == GENERIC_MOUTH_REACH
+
+
+def test_mouth_reach_learned_from_the_corners_offsets():
+    """Corners 0.16 face units in from the mean in one frame: reach 0.16 + 0.03; never below the generic one."""
+    layouts = np.repeat(GENERIC_LAYOUT[None], 5, axis=0)
+    c = cal._IDX["lip_upper_outer"]
+    layouts[2, c, 0, 0] += 0.16
+    layouts[2, c, 3, 0] -= 0.16
+    assert cal._mouth_reach(layouts, GENERIC_LAYOUT, GENERIC_MOUTH_REACH) == pytest.approx(0.19)
+    assert cal._mouth_reach(layouts[:2], GENERIC_LAYOUT, GENERIC_MOUTH_REACH) == GENERIC_MOUTH_REACH
+    layouts[2, c, 0, 1] += 1.0
+    assert cal._mouth_reach(layouts, GENERIC_LAYOUT, GENERIC_MOUTH_REACH) == pytest.approx(0.35)
 
 
 def test_corrupt_truncated_future_and_incomplete_files(tmp_path):

@@ -114,6 +114,14 @@ def _lip_hue(crops, curves_px, base: LipHue) -> LipHue:
     return LipHue(centre, float(np.clip(1.5 * spread, 10.0, 30.0)), base.min_saturation)
 
 
+def _mouth_reach(layouts: np.ndarray, layout: np.ndarray, least: float) -> float:
+    """How far the mouth corners move from the mean layout in the labelled frames (F, C, 4, 2), face units:
+    their largest offset on either axis plus a margin of 0.03, at least ``least`` and at most 0.35."""
+    c = _IDX["lip_upper_outer"]
+    offsets = np.abs(layouts[:, c, [0, 3]] - layout[c, [0, 3]])
+    return float(np.clip(offsets.max() + 0.03, least, 0.35))
+
+
 def calibrate(frames, curves, *, base, name: str, augment: int, seed: int, progress: bool):
     """See :func:`facepuppet.capture.profile.calibrate_profile`."""
     from tqdm import tqdm
@@ -151,6 +159,7 @@ def calibrate(frames, curves, *, base, name: str, augment: int, seed: int, progr
     if not crops:
         raise FacepuppetError("no labelled frame shows a face large enough to calibrate on")
     layout = np.median(np.stack(layouts), axis=0)
+    reach = _mouth_reach(np.stack(layouts), layout, base.mouth_reach)
     plain = [_crop(rgb, fr)[0] for rgb, fr in crops]
     skin_model = _skin_model(plain, skins)
     lip = _lip_hue(plain, curves_px, base.lip_hue)
@@ -170,7 +179,7 @@ def calibrate(frames, curves, *, base, name: str, augment: int, seed: int, progr
     net = ColourNet.fit(xs, ys, seed=seed)
     weights = ys[:len(crops)].mean(axis=0)
     profile = replace(base, layout=layout, skin=skin_model, lip_hue=lip, weights=weights.astype(np.float64),
-                      net=net.to_arrays(), name=name)
+                      net=net.to_arrays(), name=name, mouth_reach=reach)
     # The eye anchors: where the tracker's eye search lands, in face units, on the labelled frames.
     anchors = np.asarray(profile.anchors, dtype=float).copy()
     for _ in range(2):

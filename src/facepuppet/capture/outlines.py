@@ -308,9 +308,10 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
 
 @nb.njit(**_JIT)
 def _mouth(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset: np.ndarray, out: np.ndarray,
-           boxes: np.ndarray, params: np.ndarray, unit: float) -> None:
+           boxes: np.ndarray, params: np.ndarray, unit: float, reach: float) -> None:
     """Lips from the mouth blob (§3.2, Fig. 3): corners and outer lips from its outline, inner lips from the
-    mouth opening inside it. ``offset`` (2,) moves the layout's lips (where the mouth was seen at acquisition).
+    mouth opening inside it. ``offset`` (2,) moves the layout's lips (where the mouth was seen at acquisition);
+    the corners stay within ``reach`` face units of the layout's.
     """
     x0, y0, x1, y1 = boxes[4]
     lay = layout.copy()
@@ -329,7 +330,7 @@ def _mouth(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset: np.ndar
         return
     lx_l, lx_r = lay[uo, 0, 0], lay[uo, 3, 0]
     ly_l, ly_r = lay[uo, 0, 1], lay[uo, 3, 1]
-    b = 0.12 * unit
+    b = reach * unit
     xl = min(max(xs[0] + x0, lx_l - b), lx_l + b)
     xr = min(max(xs[-1] + 1 + x0, lx_r - b), lx_r + b)
     mid = (top + bottom) / 2.0 + y0
@@ -366,7 +367,7 @@ def _mouth(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset: np.ndar
 @nb.njit(**_JIT)
 def outline_features(C: np.ndarray, raw: np.ndarray, value: np.ndarray, layout: np.ndarray,
                      mouth_offset: np.ndarray, boxes: np.ndarray, blob_params: np.ndarray,
-                     unit: float) -> np.ndarray:
+                     unit: float, mouth_reach: float = 0.12) -> np.ndarray:
     """The layout moved onto each feature's blob, within plausible bounds (§3.2).
 
     Parameters
@@ -387,6 +388,8 @@ def outline_features(C: np.ndarray, raw: np.ndarray, value: np.ndarray, layout: 
         :meth:`~facepuppet.capture.blobs.BlobConfig.as_array` per kind.
     unit : float
         Crop pixels per face unit.
+    mouth_reach : float
+        Farthest the mouth corners move from the layout's, face units (the profile's ``mouth_reach``).
 
     Returns
     -------
@@ -396,7 +399,7 @@ def outline_features(C: np.ndarray, raw: np.ndarray, value: np.ndarray, layout: 
     out = layout.copy()
     _eyes(C, layout, out, boxes, blob_params[0], unit)
     _brows(raw, layout, out, boxes, blob_params[1], unit)
-    _mouth(C, value, layout, mouth_offset, out, boxes, blob_params[2], unit)
+    _mouth(C, value, layout, mouth_offset, out, boxes, blob_params[2], unit, mouth_reach)
     return out
 
 

@@ -25,6 +25,7 @@ __all__ = [
     "PROFILE_VERSION",
     "GENERIC_LAYOUT",
     "GENERIC_ANCHORS",
+    "GENERIC_MOUTH_REACH",
     "ANCHOR_NAMES",
     "Profile",
     "default_profile",
@@ -73,6 +74,11 @@ GENERIC_LAYOUT = _generic_layout()
 ANCHOR_NAMES = ("eye_right", "eye_left", "nose")
 GENERIC_ANCHORS = np.array([[-0.5, -0.03], [0.5, -0.03], [0.0, 0.78]])
 
+#: Farthest the colour tracker lets the mouth corners move from the layout's, face units, unless a profile
+#: learned the performer's own reach (an average mouth's corners move about a tenth of the eye distance in a
+#: smile; a pucker moves them further in).
+GENERIC_MOUTH_REACH = 0.12
+
 
 @dataclass(frozen=True)
 class Profile:
@@ -93,6 +99,9 @@ class Profile:
     lids : dict of str -> ndarray
         The eyelid model's arrays (see :mod:`facepuppet.capture.lids`); empty for none (the rules alone).
     name : str
+    mouth_reach : float
+        Farthest the mouth corners move from the layout's, face units (:data:`GENERIC_MOUTH_REACH` unless
+        learned from the performer's labelled frames).
     """
 
     layout: np.ndarray = field(default_factory=lambda: GENERIC_LAYOUT.copy())
@@ -103,6 +112,7 @@ class Profile:
     net: dict = field(default_factory=dict)
     lids: dict = field(default_factory=dict)
     name: str = "generic"
+    mouth_reach: float = GENERIC_MOUTH_REACH
 
 
 def default_profile() -> Profile:
@@ -122,6 +132,7 @@ def save_profile(path: str | os.PathLike, profile: Profile) -> None:
         "skin_threshold": np.float64(profile.skin.threshold),
         "lip_hue": np.array([profile.lip_hue.centre, profile.lip_hue.width, profile.lip_hue.min_saturation]),
         "weights": np.asarray(profile.weights, dtype=np.float64),
+        "mouth_reach": np.float64(profile.mouth_reach),
     }
     for k, v in profile.net.items():
         arrays[f"net_{k}"] = np.asarray(v, dtype=np.float64)
@@ -167,6 +178,8 @@ def load_profile(path: str | os.PathLike) -> Profile:
             net={k[4:]: v for k, v in data.items() if k.startswith("net_")},
             lids={k[5:]: v for k, v in data.items() if k.startswith("lids_")},
             name=str(data["name"]),
+            # profiles written before the reach was learned have none: the generic one
+            mouth_reach=float(data.get("mouth_reach", GENERIC_MOUTH_REACH)),
         )
     except KeyError as e:
         raise FacepuppetError(f"{path}: profile file lacks the field {e.args[0]!r}") from e

@@ -16,13 +16,30 @@ Error: for each frame with an expression (its largest scripted weight at least :
 relative vertex error ``||V_pred - V_true|| / ||V_true - T_B||`` (Frobenius norms over all vertices), averaged.
 0 is perfect; 1 is as far off as showing the neutral face.
 
-Which tracker is the default (:data:`DEFAULT_TRACKER`): measured with ``facepuppet demo --tracker color`` on
-this performer (320 px frames, seeds 0 and 1), the colour tracker's curves are about 2 px (median) from the
-true ones, but that error is as large as the motion the expressions give the feature points (rms about
-0.15 cm each over the performance), spurious weights appear on every key-model and the demo's error is about
-1.0-1.2, above the bar of 0.5; with the true curves it is about 0.12. Larger frames do not help (the tracker
-works on a crop of fixed resolution). Until the colour tracker is accurate on the digital performer the demo
-uses the true curves and says so in what it prints.
+Which tracker is the default (:data:`DEFAULT_TRACKER`): measured with ``benchmarks/eval_demo_color.py`` on
+this performer (320 px frames, 8 s, seeds 0, 1, 2), the colour tracker's error is 0.78, 0.89 and 0.87 (mean
+0.85), above the bar of 0.5; with the true curves it is 0.12. Where the colour tracker's error comes from
+(measured on those seeds, swapping parts of its track for the truth, with the tracker as it was before its
+brow tilt and lower-lip rules, when the error was 0.88):
+
+- its curves are about 1.9 px (median) from the true ones, brows 1.6, lids 1.4, lips 2.3, nostrils 2.3; as
+  large as the motion the expressions give the feature points (rms about 0.2-0.4 cm, 2-4 px). Any one family
+  tracked by colour with the rest true already gives 0.36-0.45 (brows 0.45, outer lips 0.43, lids and inner
+  lips 0.36): the mapping turns small errors into weights on every key-model (the true curves plus white
+  noise of 0.5, 1 and 2 px give 0.29, 0.43 and 0.65), and the key expressions' examples carry the tracker's
+  errors too (in the calibration's blink the lips move 0.5 cm in head coordinates where they stand still);
+- the eye corners and nostrils, the head pose's stable points, are not measured but placed with the layout by
+  the face frame, a similarity aligned on the eye centres. It cannot show a turn of the head (the solved yaw
+  varies by 0.5-1.4 degrees where the true one varies by 6), and it jumps when the lids close or the brows
+  lower (the nostrils 4-5 px off in the calibration's blink and brow-down): the pose is about 7 degrees off
+  (median). With the true pose the error is 0.77; with the true stable points 0.66 (eye corners alone 0.78,
+  nostrils alone 0.75). Measuring the nostrils on their dark pixels (1.2 px from the true ones) made it
+  worse, 0.94 (0.88 without): the pitch rests on the nose's height under the eyes, and with the nose base
+  about 0.9 cm proud of the eye corners a pixel of it is several degrees; smoothing that measurement lagged
+  the head (1.09).
+
+Until the colour tracker is accurate on the digital performer the demo uses the true curves and says so in
+what it prints.
 """
 
 from __future__ import annotations
