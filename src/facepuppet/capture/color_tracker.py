@@ -95,10 +95,7 @@ class ColorTrackerConfig:
     smoothing : bool
         Smooth the face frame and the curves over time (speed-adaptive, :class:`OneEuro`).
     curve_filter : OneEuroConfig
-        Filter of each curve control point in face units (speeds in face units per second). Its speed gain
-        (beta 4) lets an expression through in a few frames: with beta 1.5 the filter lagged the expressions
-        of the demo's performer enough to cost its error 0.05 (0.925 -> 0.877, seeds 0-2), while the shared
-        clips' jitter ratios stay at 1.29, 0.96 and 1.35.
+        Filter of each curve control point in face units (speeds in face units per second).
     lid_filter : OneEuroConfig
         Filter of the eyelids' middle control points when the profile has an eyelid model: as steady as
         ``curve_filter`` when still, quicker when moving, for a blink lasts a few frames (through
@@ -146,7 +143,7 @@ class ColorTrackerConfig:
     follow_scale: float = 0.35
     snake: SnakeConfig = field(default_factory=lambda: SnakeConfig(iterations=5, samples=10, offset=1.5, step=1.0))
     smoothing: bool = True
-    curve_filter: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=0.3, beta=4.0, d_cutoff=1.0))
+    curve_filter: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=0.3, beta=1.5, d_cutoff=1.0))
     lid_filter: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=0.3, beta=10.0, d_cutoff=1.0))
     frame_filter: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=1.0, beta=6.0, d_cutoff=1.0))
     frame_gain: float = 0.3
