@@ -31,7 +31,7 @@ from facepuppet.capture.face import (
     similarity_from_points,
 )
 from facepuppet.capture.features import FrameFeatures
-from facepuppet.capture.lids import apply_lid_model
+from facepuppet.capture.lids import EYES, apply_lid_model
 from facepuppet.capture.one_euro import OneEuro, OneEuroConfig
 from facepuppet.capture.outlines import (
     BLOB_KINDS,
@@ -62,7 +62,7 @@ _BLOB_PARAMS = np.array([_BLOB[k].as_array() for k in BLOB_KINDS])
 _SHIFTED = np.array([not n.startswith("cheek") for n in BOX_NAMES])     # rectangles that follow the eyes
 _MOUTH_BOX = BOX_NAMES.index("mouth")
 _POSE_POINTS = pose_point_index(STABLE_FEATURES)         # the stable landmarks among the curve ends
-_LIDS = np.array([_IDX[n] for n in CURVE_NAMES if n.startswith("eye_")])   # the eyelids' curves
+_LIDS = np.ravel(EYES)                                     # the eyelids' curves
 _UP = np.array([0.0, -1.0])                                # the head's up-vector in the upright crop
 _CROP_ORIGIN = np.asarray(CROP_EXTENT[:2], dtype=float)
 _SNAKE_MARGIN = 8                      # crop pixels around the mouth rectangle the snakes see

@@ -19,16 +19,14 @@ import threading
 
 import numpy as np
 
-from facepuppet.capture.curves import CURVE_NAMES, bezier_points
+from facepuppet.capture.curves import bezier_points
 from facepuppet.capture.face import similarity_from_points
+from facepuppet.capture.lids import EYES
 from facepuppet.errors import FacepuppetError
 
 __all__ = ["eye_centres_of", "calibrated_anchors", "shared_landmarker", "landmark_curves"]
 
 log = logging.getLogger(__name__)
-
-_IDX = {n: i for i, n in enumerate(CURVE_NAMES)}
-_LIDS = np.array([[_IDX[f"eye_{side}_{lid}"] for lid in ("upper", "lower")] for side in ("right", "left")])
 
 #: Landmark backends (image mode) by model path and options, made on first need and kept for the process:
 #: loading the model costs far more than a tracker's whole acquisition. None: not available.
@@ -42,7 +40,7 @@ def eye_centres_of(curves: np.ndarray, samples: int = 16) -> np.ndarray:
     ``curves`` (C, 4, 2) in CURVE_NAMES order, any coordinates.
     """
     return np.array([np.concatenate([bezier_points(curves[i], samples) for i in lids]).mean(axis=0)
-                     for lids in _LIDS])
+                     for lids in EYES])
 
 
 def calibrated_anchors(anchors: np.ndarray, found: np.ndarray, unit: float, *,

@@ -128,7 +128,8 @@ class PerformerExamples:
     warnings : tuple of str
         What :func:`check_examples` found.
     noise : (P, D) float or None
-        ``--auto``: each coordinate's noise scale (:func:`coordinate_noise`); None otherwise.
+        Each coordinate's noise scale (:func:`coordinate_noise`), from the blendshape scores (``--auto``) or
+        the key expressions' blends (marks); None when there were too few frames or from a camera.
     """
 
     neutral: np.ndarray
