@@ -155,7 +155,8 @@ def load_profile(path: str | os.PathLike) -> Profile:
         with np.load(path, allow_pickle=False) as d:
             data = {k: d[k] for k in d.files}
     except FileNotFoundError as e:
-        raise FacepuppetError(f"{path}: no such profile file") from e
+        raise FacepuppetError(f"{path}: no such profile file (make one from a clip of the performer with "
+                              f"'facepuppet calibrate CLIP --make-profile {path} ...')") from e
     except (OSError, ValueError, zipfile.BadZipFile, EOFError) as e:
         raise FacepuppetError(f"{path}: not a readable profile file ({e})") from e
     try:
