@@ -30,3 +30,24 @@ def test_first_sample_and_bad_step_pass_through():
     f = OneEuro()
     np.testing.assert_allclose(f(np.ones((3, 2)), 1 / 30), 1.0)
     np.testing.assert_allclose(f(np.zeros((3, 2)), 0.0), 0.0)
+
+
+def test_noise_going_to_and_fro_does_not_open_the_filter():
+    # An input flipping between +e and -e every frame (the to-and-fro of noise, at its fastest). Its velocity
+    # is filtered before its length is taken, so it averages out and the cut-off stays near min_cutoff; taking
+    # the length first (speed ~ 2e per frame) would open the filter and let about 3/4 of the flips through.
+    e, dt = 0.01, 1 / 30
+    f = OneEuro(OneEuroConfig(min_cutoff=1.0, beta=50.0, d_cutoff=1.0))
+    out = np.array([f(np.array([[e * (-1) ** k, 0.0]]), dt)[0, 0] for k in range(300)])
+    amplitude = np.ptp(out[200:]) / 2
+    # A plain exponential filter at min_cutoff (gain a) passes a / (2 - a) of a flip; at 1 Hz that is 0.095.
+    a = 1 / (1 + 1 / (2 * np.pi * 1.0 * dt))
+    assert a / (2 - a) * e <= amplitude < 0.3 * e
+
+
+def test_restart_carries_on_from_a_value_standing_still():
+    f = OneEuro(OneEuroConfig(min_cutoff=1.0, beta=0.0, d_cutoff=1.0))
+    f(np.array([[5.0]]), 1 / 30)
+    f.restart(np.array([[1.0]]))
+    a = 1 / (1 + 1 / (2 * np.pi * 1.0 / 30))
+    np.testing.assert_allclose(f(np.array([[2.0]]), 1 / 30), [[1.0 + a]])

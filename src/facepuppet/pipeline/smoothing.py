@@ -13,7 +13,8 @@ For a sample x_t at time t, with T = t - t_prev::
     fc         = min_cutoff + beta |dx_t|
     y_t        = alpha(fc) x_t + (1 - alpha(fc)) y_prev
 
-Each channel (key-model weight) has its own cut-off. Defaults (:class:`SmoothingConfig`), chosen for blend
+Each channel (key-model weight) has its own cut-off (the filter is :class:`~facepuppet.capture.one_euro.OneEuro`
+with one-component groups). Defaults (:class:`SmoothingConfig`), chosen for blend
 weights in [0, 1] at 24-60 frames per second: ``min_cutoff = 1.5`` Hz removes tracking jitter of a still face
 (white noise variance falls about six-fold at 30 fps); ``beta = 2.0`` opens the filter to about 10 Hz during a
 fast expression change (a jaw opening in 0.2 s moves the weight at about 5 per second), so the delay there
@@ -30,7 +31,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from facepuppet.capture.one_euro import smoothing_factor
+from facepuppet.capture.one_euro import OneEuro, OneEuroConfig
 
 __all__ = ["SmoothingConfig", "OneEuroFilter", "smooth", "parse_smoothing"]
 
@@ -128,8 +129,9 @@ class OneEuroFilter:
 
     def reset(self) -> None:
         """Forget the past: the next valid sample passes unchanged."""
+        cfg = self.config
+        self._euro = OneEuro(OneEuroConfig(min_cutoff=cfg.min_cutoff, beta=cfg.beta, d_cutoff=cfg.d_cutoff))
         self._y: np.ndarray | None = None       # last output
-        self._dx = np.zeros(self.n_channels)    # smoothed speed
         self._t: float | None = None            # time of the last output
         self._lost_since: float | None = None   # time of the first lost frame of the current gap
         self._held: np.ndarray | None = None    # output when the gap began
@@ -149,7 +151,6 @@ class OneEuroFilter:
         (M,) float
             The filtered value (a new array).
         """
-        cfg = self.config
         lost = x is None
         if not lost:
             x = np.asarray(x, dtype=float)
@@ -159,17 +160,12 @@ class OneEuroFilter:
         if lost:
             return self._lost(t)
         self._lost_since = self._held = None
-        if self._y is None or self._t is None or not cfg.enabled:
+        if self._y is None or self._t is None or not self.config.enabled:
             self._y, self._t = x.copy(), t
-            self._dx[:] = 0.0
+            self._euro.restart(x[:, None])
             return x.copy()
         dt = t - self._t
-        if dt <= 0:
-            dt = 1e-3
-        dx = (x - self._y) / dt
-        self._dx = self._dx + smoothing_factor(cfg.d_cutoff, dt) * (dx - self._dx)
-        a = smoothing_factor(cfg.min_cutoff + cfg.beta * np.abs(self._dx), dt)
-        self._y = self._y + a * (x - self._y)
+        self._y = self._euro(x[:, None], dt if dt > 0 else 1e-3)[:, 0]
         self._t = t
         return self._y.copy()
 
@@ -188,7 +184,7 @@ class OneEuroFilter:
             u = min(1.0, (gap - cfg.hold) / cfg.ease)
             s = u * u * (3.0 - 2.0 * u)      # smoothstep
         self._y = (1.0 - s) * self._held + s * self.neutral
-        self._dx[:] = 0.0
+        self._euro.restart(self._y[:, None])
         self._t = t
         return self._y.copy()
 
