@@ -207,3 +207,27 @@ def test_inner_lips_follow_the_mouth_opening_on_the_digital_performer():
         assert dist(inner, inner) < 0.04 * span
         assert dist(outer, outer) < 0.05 * span
         assert dist(inner, inner) < 0.5 * dist(inner, outer)
+
+
+def test_a_small_face_found_again_keeps_its_size(assets, tmp_path):
+    """performer_c shrunk to 2/5 on a grey frame and written as MPEG-4 (a face about 80 pixels wide): a blink
+    makes the likeness check drop it near frame 90; finding it again must not take a frame twice its size that
+    also looks somewhat like a face (before the size cost: 66 pixels between the eyes instead of 32)."""
+    frames = _frames(assets / "video" / "performer_c.mp4", 130)
+    h, w = frames[0].shape[:2]
+    path = tmp_path / "small.mp4"
+    out = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), 30.0, (w, h))
+    for f in frames:
+        small = np.full_like(f, 90)
+        s = cv2.resize(f, (w * 2 // 5, h * 2 // 5), interpolation=cv2.INTER_AREA)
+        small[h // 3:h // 3 + s.shape[0], w // 4:w // 4 + s.shape[1]] = s
+        out.write(cv2.cvtColor(small, cv2.COLOR_RGB2BGR))
+    out.release()
+    tracker = ColorTracker()
+    spans = []
+    for i, f in enumerate(_frames(path, len(frames))):
+        g = tracker.track(f, round(1000 * i / 30))
+        assert g.valid, i
+        spans.append(np.linalg.norm(g.curves[_IDX["eye_left_upper"], 3] - g.curves[_IDX["eye_right_upper"], 3]))
+    change = np.abs(np.diff(np.log(spans)))
+    assert change.max() < np.log(1.25), (int(change.argmax()), np.round(spans, 1))

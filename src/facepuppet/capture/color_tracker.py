@@ -135,6 +135,12 @@ class ColorTrackerConfig:
         Bounds of the calibration's scale change of the layout.
     anchor_noise_floor : float
         Face units an eye anchor must move by for the calibration to move the anchors at all.
+    resize_cost : float
+        When the face was just lost, candidates for finding it again are compared by their likeness to a face
+        minus this times the absolute log ratio of their size to the lost frame's (a doubling costs 0.21): a
+        face does not change size between two frames, a frame over the whole head or over one eye may look
+        like a face too (on a small face after a blink, a candidate twice its size scored 0.18 where the face
+        itself scored less).
     """
 
     px: float = 48.0
@@ -161,6 +167,7 @@ class ColorTrackerConfig:
     anchor_calibration: float = 0.5
     anchor_scale_limits: tuple[float, float] = (0.85, 1.15)
     anchor_noise_floor: float = 0.03
+    resize_cost: float = 0.3
 
 
 def _box_px(box, px):
@@ -213,6 +220,7 @@ class ColorTracker:
         self._set_anchors((np.asarray(profile.anchors) - CROP_EXTENT[:2]) * px)
         self._calibrated = config.anchor_calibration <= 0    # anchors calibrated on the landmark backend's eyes
         self._frame: FaceFrame | None = None
+        self._dropped: FaceFrame | None = None     # the frame the likeness check just dropped
         self._ref: np.ndarray | None = None
         self._followed: np.ndarray | None = None      # crop matrix where the alignment last put the face
         self._misses = 0
@@ -271,7 +279,10 @@ class ColorTracker:
                 else:
                     self._unit_ref += 0.05 * (result[1].unit - self._unit_ref)
         if result is None:
-            result = self._acquire(rgb, last=self._frame)
+            # The frame the face was followed in until now (or until the likeness check dropped it) is a
+            # candidate too: after a blink or a turn the face is usually still there.
+            result = self._acquire(rgb, last=self._frame or self._dropped)
+        self._dropped = None
         if result is None:
             self._frame = None
             return FrameFeatures.lost(len(CURVE_NAMES), len(POINT_NAMES))
@@ -313,8 +324,8 @@ class ColorTracker:
             seen.append(frame)
             self._light = M
             got = self._refine(rgb, [frame.compose(np.array([[s, 0.0, 0.0], [0.0, s, dy]]))
-                                     for dy in (0.0, 0.35, -0.35) for s in (1.0, 0.8, 1.25)])
-            if got is not None and (best is None or got[3] > best[3]):
+                                     for dy in (0.0, 0.35, -0.35) for s in (1.0, 0.8, 1.25)], last)
+            if got is not None and (best is None or self._likeness(got, last) > self._likeness(best, last)):
                 best, light = got, M
         self._light = light if light is None or best is None else self._fit_light(rgb, best[1], light)
         if best is None or best[3] < self.config.min_acquire_score:
@@ -435,10 +446,18 @@ class ColorTracker:
         self._score = score if self._score is None else 0.5 * (self._score + score)
         if self._score < self.config.min_followed_score:
             log.debug("face lost: the followed crop no longer looks like a face (score %.2f)", self._score)
-            self._frame = None
+            self._frame, self._dropped = None, self._frame
 
-    def _refine(self, rgb: np.ndarray, candidates: list[FaceFrame]):
-        """Pull each candidate face frame onto the eyes; the result that looks most like a face, or None."""
+    def _likeness(self, result, last: FaceFrame | None) -> float:
+        """How much a measurement's crop looks like a face, less ``resize_cost`` per unit of log size change
+        from ``last``, the frame the face was just lost in (if any)."""
+        if last is None:
+            return result[3]
+        return result[3] - self.config.resize_cost * abs(np.log(result[1].unit / last.unit))
+
+    def _refine(self, rgb: np.ndarray, candidates: list[FaceFrame], last: FaceFrame | None = None):
+        """Pull each candidate face frame onto the eyes; the result that looks most like a face (:meth:`_likeness`
+        with ``last``), or None."""
         best = None
         for cand in candidates:
             result = None
@@ -447,7 +466,8 @@ class ColorTracker:
                 if result is None:
                     break
                 cand = result[1]
-            if result is not None and result[2] and (best is None or result[3] > best[3]):
+            if result is not None and result[2] and (best is None or
+                                                     self._likeness(result, last) > self._likeness(best, last)):
                 best = result
         return best
 
