@@ -44,7 +44,7 @@ from facepuppet.capture.outlines import (
 )
 from facepuppet.capture.pose import STABLE_FEATURES, estimate_pose, points_in_head, pose_point_index
 from facepuppet.capture.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
-from facepuppet.capture.snakes import LOWER, UPPER, SnakeConfig, minimise_snakes, snake_fields
+from facepuppet.capture.snakes import LOWER, UPPER, SnakeConfig, SnakeSolver, snake_fields
 
 __all__ = ["ColorTrackerConfig", "ColorTracker"]
 
@@ -232,6 +232,7 @@ class ColorTracker:
         self._count_tracked = 0
         self._shift = np.zeros(2)
         self._make_template()
+        self._snakes = SnakeSolver(_SNAKE_SIDE, _UP, config.snake, fixed_ends=_SNAKE_FIXED)
         self._curve_filter = OneEuro(config.curve_filter)
         self._lid_filter = OneEuro(config.lid_filter)
         self._lids = {k: np.ascontiguousarray(v, dtype=np.float64) for k, v in profile.lids.items()}
@@ -578,9 +579,7 @@ class ColorTracker:
             x0, y0, x1, y1 = max(x0 - m, 0), max(y0 - m, 0), min(x1 + m, w), min(y1 + m, h)
             if x1 - x0 > 2 * m and y1 - y0 > 2 * m:
                 o = np.array([x0, y0], dtype=float)
-                curves_px[idx] = minimise_snakes(curves_px[idx] - o, _SNAKE_SIDE, _UP,
-                                                 snake_fields(C[y0:y1, x0:x1], 5), self.config.snake,
-                                                 fixed_ends=_SNAKE_FIXED) + o
+                curves_px[idx] = self._snakes(curves_px[idx] - o, snake_fields(C[y0:y1, x0:x1], 5)) + o
         if self.profile.lids:
             # The performer's eyelid model reads the lids off the look of each eye (capture.lids).
             apply_lid_model(curves_px, crop, self._lids)

@@ -16,6 +16,7 @@ lies in the feature and the outer one on skin, which tells curve A from curve B 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import cv2
 import numba as nb
@@ -23,7 +24,8 @@ import numpy as np
 
 from facepuppet.capture.curves import bernstein
 
-__all__ = ["SnakeConfig", "snake_fields", "snake_energy", "minimise_snakes", "box_guess", "UPPER", "LOWER"]
+__all__ = ["SnakeConfig", "SnakeSolver", "snake_fields", "snake_energy", "minimise_snakes", "box_guess", "UPPER",
+           "LOWER"]
 
 #: The feature lies below the curve (the curve is its upper boundary, curve A of Fig. 3).
 UPPER = 1.0
@@ -83,8 +85,14 @@ def snake_fields(intensity: np.ndarray, blur: int = 5) -> np.ndarray:
     img = np.ascontiguousarray(intensity, dtype=np.float32)
     if img.ndim != 2 or min(img.shape) < 2:
         raise ValueError(f"intensity must be a 2-D image of at least 2 x 2 pixels, got shape {img.shape}")
+    return _fields(img, _taps(int(blur)))
+
+
+@lru_cache(maxsize=8)
+def _taps(blur: int) -> np.ndarray:
+    """OpenCV's Gaussian kernel of ``blur`` taps (sigma from the size), float32; one tap of 1 for ``blur <= 1``."""
     taps = cv2.getGaussianKernel(blur, 0).ravel() if blur > 1 else np.ones(1)
-    return _fields(img, taps.astype(np.float32))
+    return taps.astype(np.float32)              # shared by the calls: not to be modified
 
 
 @nb.njit(cache=True, nogil=True)
@@ -232,23 +240,47 @@ def minimise_snakes(ctrl: np.ndarray, side: np.ndarray, up: np.ndarray, fields: 
     -------
     (C, 4, 2) float32
     """
-    b, prof = _Basis.get(config.samples)
-    x = np.array(ctrl, dtype=np.float32)
-    c = len(x)
-    if c == 0:
-        return x
-    inward = _offset_dirs(side, up) * np.float32(config.offset)
-    shift = prof[None, :, None] * inward[:, None, :]
-    mask = np.ones((c, 4, 1), dtype=np.float32)
-    if not config.move_ends:
-        mask[:, [0, 3]] = 0.0
-    if fixed_ends is not None:
-        fe = np.asarray(fixed_ends, dtype=bool)
-        mask[fe, 0] = 0.0
-        mask[fe, 3] = 0.0
-    return _descend(x, shift, mask, b.astype(np.float64), np.ascontiguousarray(fields, dtype=np.float32),
-                    float(config.w_edge), float(config.w_in), float(config.w_out), float(config.step),
-                    float(config.decay), int(config.iterations))
+    return SnakeSolver(side, up, config, fixed_ends)(ctrl, fields)
+
+
+class SnakeSolver:
+    """:func:`minimise_snakes` for fixed sides, up-vector, options and fixed ends: what depends only on these
+    (the offset curves' shifts, the movable control points, the Bernstein samples) is set up once, so a
+    tracker that refines the same curves every frame pays only for the downhill steps.
+
+    Parameters
+    ----------
+    side, up, config, fixed_ends
+        As :func:`minimise_snakes`.
+    """
+
+    def __init__(self, side: np.ndarray, up: np.ndarray, config: SnakeConfig = SnakeConfig(),
+                 fixed_ends: np.ndarray | None = None):
+        b, prof = _Basis.get(config.samples)
+        c = len(side)
+        inward = _offset_dirs(side, up) * np.float32(config.offset)
+        self._shift = prof[None, :, None] * inward[:, None, :]
+        mask = np.ones((c, 4, 1), dtype=np.float32)
+        if not config.move_ends:
+            mask[:, [0, 3]] = 0.0
+        if fixed_ends is not None:
+            fe = np.asarray(fixed_ends, dtype=bool)
+            mask[fe, 0] = 0.0
+            mask[fe, 3] = 0.0
+        self._mask = mask
+        self._basis = b.astype(np.float64)
+        self._steps = (float(config.w_edge), float(config.w_in), float(config.w_out), float(config.step),
+                       float(config.decay), int(config.iterations))
+
+    def __call__(self, ctrl: np.ndarray, fields: np.ndarray) -> np.ndarray:
+        """The curves ``ctrl`` (C, 4, 2) minimised in ``fields`` (H, W, 5) -> (C, 4, 2) float32."""
+        x = np.array(ctrl, dtype=np.float32)
+        if len(x) == 0:
+            return x
+        if len(x) != len(self._mask):
+            raise ValueError(f"ctrl must hold the solver's {len(self._mask)} curves, got {len(x)}")
+        return _descend(x, self._shift, self._mask, self._basis, np.ascontiguousarray(fields, dtype=np.float32),
+                        *self._steps)
 
 
 @nb.njit(cache=True, nogil=True)
