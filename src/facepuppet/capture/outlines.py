@@ -222,7 +222,7 @@ def _brows(raw: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: np.ndarr
         # Brows are often fainter than the eyes and lips the contrast C is scaled to: normalise the raw
         # intensity of Eq. 1 within the rectangle (forehead skin at the median).
         sub = raw[y0:y1, x0:x1].astype(np.float64)
-        flat = np.sort(sub.ravel())
+        flat = sub.ravel()
         lo_v = _quantile(flat, 0.5)
         hi_v = _quantile(flat, 0.97)
         norm = ((sub - lo_v) / max(hi_v - lo_v, 1e-6)).astype(np.float32)
