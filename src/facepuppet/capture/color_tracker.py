@@ -64,6 +64,7 @@ _MOUTH_BOX = BOX_NAMES.index("mouth")
 _POSE_POINTS = pose_point_index(STABLE_FEATURES)         # the stable landmarks among the curve ends
 _LIDS = np.ravel(EYES)                                     # the eyelids' curves
 _UP = np.array([0.0, -1.0])                                # the head's up-vector in the upright crop
+_EYE2 = np.eye(2)
 _CROP_ORIGIN = np.asarray(CROP_EXTENT[:2], dtype=float)
 _SNAKE_MARGIN = 8                      # crop pixels around the mouth rectangle the snakes see
 _CHEEK_L, _CHEEK_R = BOX_NAMES.index("cheek_left"), BOX_NAMES.index("cheek_right")
@@ -219,6 +220,7 @@ class ColorTracker:
         self._light: np.ndarray | None = None       # colour transform evening out the light (set at acquisition)
         self._eye_window = (int(round(config.eye_window[0] * px)), int(round(config.eye_window[1] * px)))
         self._layout_px = (np.asarray(profile.layout) - CROP_EXTENT[:2]) * px
+        self._origin_px = -_CROP_ORIGIN * px          # the face frame's origin in crop pixels
         self._set_anchors((np.asarray(profile.anchors) - CROP_EXTENT[:2]) * px)
         self._calibrated = config.anchor_calibration <= 0    # anchors calibrated on the landmark backend's eyes
         self._frame: FaceFrame | None = None
@@ -493,15 +495,17 @@ class ColorTracker:
             self._curve_filter.reset()
             self._lid_filter.reset()
             self._frame_filter.reset()
-        M = measured.to_image()
-        units = (curves - M[:, 2]) @ np.linalg.inv(M[:, :2]).T
-        fr = self._frame_filter(np.stack([measured.origin, measured.axis]), dt, measured.unit)
-        frame = FaceFrame(fr[0], fr[1])
+        # Image pixels -> face units: the inverse of the frame's similarity [[ax, -ay], [ay, ax]] is its
+        # transpose over the squared unit.
+        ax, ay = measured.axis.tolist()
+        u2 = ax * ax + ay * ay
+        units = (curves - measured.origin) @ np.array([[ax / u2, -ay / u2], [ay / u2, ax / u2]])
+        fr = self._frame_filter(np.array([measured.origin, measured.axis]), dt, measured.unit)
         smooth = self._curve_filter(units, dt)
         if self.profile.lids:
             smooth[_LIDS, 1:3] = self._lid_filter(units[_LIDS, 1:3], dt)
-        F = frame.to_image()
-        return smooth @ F[:, :2].T + F[:, 2]
+        (ox, oy), (ax, ay) = fr.tolist()
+        return smooth @ np.array([[ax, ay], [-ay, ax]]) + np.array([ox, oy])
 
     def _features(self, curves: np.ndarray, size: tuple[int, int]) -> FrameFeatures:
         uv = curves[_POSE_POINTS]
@@ -556,15 +560,15 @@ class ColorTracker:
         corr = self._corr if smooth else np.array([1.0, 0.0, 0.0, 0.0])
         if eyes is not None:
             S_eye = _similarity_of_pairs(self._anchors_px[:2], eyes)
-            if 0.8 < float(np.hypot(*S_eye[:, 0])) < 1.25:
+            if 0.8 < float(np.hypot(S_eye[0, 0], S_eye[1, 0])) < 1.25:
                 v = np.array([S_eye[0, 0], S_eye[1, 0], S_eye[0, 2], S_eye[1, 2]])
                 corr = corr + gain * (v - corr) if smooth else v
             else:
                 eyes = None
-        a, b, tx, ty = corr
+        a, b, tx, ty = corr.tolist()
         S_px = np.array([[a, -b, tx], [b, a, ty]])
-        scale = float(np.hypot(*S_px[:, 0]))
-        self._shift = S_px[:, 2] + (S_px[:, :2] - np.eye(2)) @ self._anchor_mid
+        scale = float(np.hypot(a, b))
+        self._shift = S_px[:, 2] + (S_px[:, :2] - _EYE2) @ self._anchor_mid
         layout = self._layout_px @ S_px[:, :2].T + S_px[:, 2]
         self._last_measured = (C, S_px)
         boxes = self._boxes_now()
@@ -590,7 +594,9 @@ class ColorTracker:
         # Back to image pixels.
         Ainv = cv2.invertAffineTransform(A)
         curves = curves_px @ Ainv[:, :2].T + Ainv[:, 2]
-        S = np.column_stack([S_px[:, :2], -S_px[:, :2] @ _CROP_ORIGIN + S_px[:, 2] / px + _CROP_ORIGIN])  # face units
+        S = np.empty((2, 3))                                                  # S_px in face units
+        S[:, :2] = S_px[:, :2]
+        S[:, 2] = -S_px[:, :2] @ _CROP_ORIGIN + S_px[:, 2] / px + _CROP_ORIGIN
         measured = frame.compose(S)
         return curves, measured, eyes is not None, score, measured, corr
 
@@ -637,26 +643,21 @@ class ColorTracker:
         The search starts where the alignment put the face in the last frame, so a couple of steps suffice.
         """
         # First guess: the face where the alignment last put it (reference half-res crop -> current one).
-        Ainv = cv2.invertAffineTransform(A)
-        guess = np.vstack([A, [0.0, 0.0, 1.0]]) @ np.vstack([cv2.invertAffineTransform(self._followed), [0, 0, 1]])
-        guess[:2, 2] *= self.config.follow_scale
+        f = self.config.follow_scale
+        guess = _then(cv2.invertAffineTransform(self._followed), A)
+        guess[:, 2] *= f
         try:
-            _, warp = cv2.findTransformECC(self._ref, self._grey(rgb, A), guess[:2].astype(np.float32),
+            _, warp = cv2.findTransformECC(self._ref, self._grey(rgb, A), guess.astype(np.float32),
                                            cv2.MOTION_AFFINE, (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS,
                                                                self.config.follow_iterations, 1e-3), None, 3)
         except cv2.error:
             return None
         W = warp.astype(float)
-        W[:, 2] /= self.config.follow_scale
-        self._followed = cv2.invertAffineTransform(np.column_stack([Ainv[:, :2] @ W[:, :2],
-                                                                    Ainv[:, :2] @ W[:, 2] + Ainv[:, 2]]))
-        M = Ainv[:, :2] @ W[:, :2]
-        t = Ainv[:, :2] @ W[:, 2] + Ainv[:, 2]
+        W[:, 2] /= f
+        G = _then(W, cv2.invertAffineTransform(A))      # crop pixels -> image pixels, where the face is now
+        self._followed = cv2.invertAffineTransform(G)
         px = self.config.px
-        o_crop = np.array([-CROP_EXTENT[0], -CROP_EXTENT[1]]) * px
-        origin = M @ o_crop + t
-        axis = M @ np.array([px, 0.0])
-        return FaceFrame(origin, axis)
+        return FaceFrame(G[:, :2] @ self._origin_px + G[:, 2], G[:, 0] * px)
 
     def _skin_ok(self, crop: np.ndarray) -> bool:
         """Whether the cheeks of the crop look like skin (the profile's skin model, over 30 % of the pixels)."""
@@ -673,10 +674,18 @@ def _same_frame(a: FaceFrame, b: FaceFrame, move: float = 0.1, size: float = 0.1
     return bool(np.hypot(*(a.origin - b.origin)) < move * a.unit and abs(np.log(a.unit / b.unit)) < size)
 
 
+def _then(P: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """The affine map (2, 3) that applies ``P`` (2, 3), then ``Q`` (2, 3)."""
+    out = np.empty((2, 3))
+    out[:, :2] = Q[:, :2] @ P[:, :2]
+    out[:, 2] = Q[:, :2] @ P[:, 2] + Q[:, 2]
+    return out
+
+
 def _similarity_of_pairs(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
     """The similarity (2, 3) taking the two points ``src`` (2, 2) exactly onto ``dst`` (2, 2)."""
-    (sx0, sy0), (sx1, sy1) = src
-    (dx0, dy0), (dx1, dy1) = dst
+    (sx0, sy0), (sx1, sy1) = np.asarray(src).tolist()
+    (dx0, dy0), (dx1, dy1) = np.asarray(dst).tolist()
     ux, uy, vx, vy = sx1 - sx0, sy1 - sy0, dx1 - dx0, dy1 - dy0
     den = max(ux * ux + uy * uy, 1e-12)
     a, b = (ux * vx + uy * vy) / den, (ux * vy - uy * vx) / den
