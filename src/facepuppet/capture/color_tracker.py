@@ -466,8 +466,8 @@ class ColorTracker:
         best = None
         for cand in candidates:
             result = None
-            for _ in range(3):
-                result = self._measure(rgb, cand, follow=False, gain=1.0)
+            for step in range(3):
+                result = self._measure(rgb, cand, follow=False, gain=1.0, outline=step == 2)
                 if result is None:
                     break
                 cand = result[1]
@@ -531,8 +531,9 @@ class ColorTracker:
             self._cheek_boxes, self._eye_boxes)
         return self.intensity_last
 
-    def _measure(self, rgb: np.ndarray, frame: FaceFrame, *, follow: bool, gain: float):
-        """Track one frame in the face frame ``frame``.
+    def _measure(self, rgb: np.ndarray, frame: FaceFrame, *, follow: bool, gain: float, outline: bool = True):
+        """Track one frame in the face frame ``frame``; without ``outline``, only re-align the frame (the
+        curves are None: the steps that only move a candidate frame do not need them).
 
         Returns
         -------
@@ -569,11 +570,30 @@ class ColorTracker:
         S_px = np.array([[a, -b, tx], [b, a, ty]])
         scale = float(np.hypot(a, b))
         self._shift = S_px[:, 2] + (S_px[:, :2] - _EYE2) @ self._anchor_mid
-        layout = self._layout_px @ S_px[:, :2].T + S_px[:, 2]
         self._last_measured = (C, S_px)
         boxes = self._boxes_now()
+        # How much the crop looks like a face: needed to pick among candidates and when the skin is not seen.
+        score = self._face_score(C, S_px) if (not follow or not skin) else 1.0
+        if not skin and score < self.config.min_skinless_score and not self._skinless_ok:
+            return None
+        curves = None
+        if outline:
+            curves_px = self._outlines(C, crop, self._layout_px @ S_px[:, :2].T + S_px[:, 2], boxes, px * scale)
+            Ainv = cv2.invertAffineTransform(A)
+            curves = curves_px @ Ainv[:, :2].T + Ainv[:, 2]                 # back to image pixels
+        S = np.empty((2, 3))                                                  # S_px in face units
+        S[:, :2] = S_px[:, :2]
+        S[:, 2] = -S_px[:, :2] @ _CROP_ORIGIN + S_px[:, 2] / px + _CROP_ORIGIN
+        measured = frame.compose(S)
+        return curves, measured, eyes is not None, score, measured, corr
+
+    def _outlines(self, C: np.ndarray, crop: np.ndarray, layout: np.ndarray, boxes: np.ndarray,
+                  unit: float) -> np.ndarray:
+        """The curves (C, 4, 2) in crop pixels: §3.2's rules from the layout placed on the crop (``layout``),
+        the lips refined as snakes, the lids by the performer's eyelid model if any. ``unit``: crop pixels per
+        face unit."""
         curves_px = outline_features(C, self._raw, self._value, layout, self._mouth_offset, boxes, _BLOB_PARAMS,
-                                     px * scale, float(self.profile.mouth_reach))
+                                     unit, float(self.profile.mouth_reach))
         idx = _SNAKE_IDX
         if len(idx):
             # The snakes see the mouth rectangle and a margin (the fields are only computed there).
@@ -587,18 +607,7 @@ class ColorTracker:
         if self.profile.lids:
             # The performer's eyelid model reads the lids off the look of each eye (capture.lids).
             apply_lid_model(curves_px, crop, self._lids)
-        # How much the crop looks like a face: needed to pick among candidates and when the skin is not seen.
-        score = self._face_score(C, S_px) if (not follow or not skin) else 1.0
-        if not skin and score < self.config.min_skinless_score and not self._skinless_ok:
-            return None
-        # Back to image pixels.
-        Ainv = cv2.invertAffineTransform(A)
-        curves = curves_px @ Ainv[:, :2].T + Ainv[:, 2]
-        S = np.empty((2, 3))                                                  # S_px in face units
-        S[:, :2] = S_px[:, :2]
-        S[:, 2] = -S_px[:, :2] @ _CROP_ORIGIN + S_px[:, 2] / px + _CROP_ORIGIN
-        measured = frame.compose(S)
-        return curves, measured, eyes is not None, score, measured, corr
+        return curves_px
 
     def _face_score(self, C: np.ndarray, S_px: np.ndarray) -> float:
         """Correlation of the feature intensity with the profile's layout drawn as a face (in [-1, 1])."""

@@ -106,26 +106,17 @@ def _reflect(i: int, n: int) -> int:
 
 
 @nb.njit(cache=True, nogil=True)
-def _padded(img: np.ndarray, r: int) -> np.ndarray:
-    """``img`` with ``r`` reflected pixels on every side."""
-    h, w = img.shape
-    out = np.empty((h + 2 * r, w + 2 * r), np.float32)
-    for y in range(h + 2 * r):
-        sy = _reflect(y - r, h)
-        for x in range(w + 2 * r):
-            out[y, x] = img[sy, _reflect(x - r, w)]
-    return out
-
-
-@nb.njit(cache=True, nogil=True)
 def _central(img: np.ndarray, out: np.ndarray, cx: int, cy: int) -> None:
-    """Central differences (f(+1) - f(-1)) / 2 along x into channel ``cx`` and along y into ``cy``."""
+    """Central differences (f(+1) - f(-1)) / 2 along x into channel ``cx`` and along y into ``cy`` (reflected
+    borders)."""
     h, w = img.shape
-    p = _padded(img, 1)
     for y in range(h):
+        ym, yp = _reflect(y - 1, h), _reflect(y + 1, h)
         for x in range(w):
-            out[y, x, cx] = 0.5 * (p[y + 1, x + 2] - p[y + 1, x])
-            out[y, x, cy] = 0.5 * (p[y + 2, x + 1] - p[y, x + 1])
+            xm = x - 1 if x > 0 else _reflect(-1, w)
+            xp = x + 1 if x < w - 1 else _reflect(w, w)
+            out[y, x, cx] = 0.5 * (img[y, xp] - img[y, xm])
+            out[y, x, cy] = 0.5 * (img[yp, x] - img[ym, x])
 
 
 @nb.njit(cache=True, nogil=True)
@@ -135,23 +126,30 @@ def _fields(img: np.ndarray, taps: np.ndarray) -> np.ndarray:
     h, w = img.shape
     n = len(taps)
     r = n // 2
-    p = _padded(img, r)
-    tmp = np.zeros((h + 2 * r, w), np.float32)
-    for y in range(h + 2 * r):
+    # Along the rows (each row padded by reflection), then along the columns (rows read reflected).
+    row = np.empty(w + 2 * r, np.float32)
+    tmp = np.zeros((h, w), np.float32)
+    for y in range(h):
+        for x in range(w + 2 * r):
+            row[x] = img[y, _reflect(x - r, w)]
         for k in range(n):
             t = taps[k]
             for x in range(w):
-                tmp[y, x] += t * p[y, x + k]
+                tmp[y, x] += t * row[x + k]
     blurred = np.zeros((h, w), np.float32)
     for y in range(h):
         for k in range(n):
             t = taps[k]
+            src = tmp[_reflect(y + k - r, h)]
             for x in range(w):
-                blurred[y, x] += t * tmp[y + k, x]
+                blurred[y, x] += t * src[x]
     out = np.empty((h, w, 5), np.float32)
-    out[:, :, 0] = blurred
     _central(blurred, out, 1, 2)
-    mag = out[:, :, 1] * out[:, :, 1] + out[:, :, 2] * out[:, :, 2]
+    mag = np.empty((h, w), np.float32)
+    for y in range(h):
+        for x in range(w):
+            out[y, x, 0] = blurred[y, x]
+            mag[y, x] = out[y, x, 1] * out[y, x, 1] + out[y, x, 2] * out[y, x, 2]
     _central(mag, out, 3, 4)
     return out
 
