@@ -612,8 +612,8 @@ class ColorTracker:
     def _face_score(self, C: np.ndarray, S_px: np.ndarray) -> float:
         """Correlation of the feature intensity with the profile's layout drawn as a face (in [-1, 1])."""
         T = cv2.warpAffine(self._template, S_px.astype(np.float32), self._size, flags=cv2.INTER_LINEAR)
-        m = self._template_mask
-        a, t = C[m], T[m]
+        x0, y0, x1, y1 = self._template_box
+        a, t = C[y0:y1, x0:x1].ravel(), T[y0:y1, x0:x1].ravel()        # copies, row by row
         a = a - a.mean()
         t = t - t.mean()
         return float((a * t).sum() / max(np.sqrt((a * a).sum() * (t * t).sum()), 1e-9))
@@ -627,11 +627,7 @@ class ColorTracker:
             pts = np.round(bezier_points(L[_IDX[name]], 16) * 4).astype(np.int32)
             cv2.polylines(T, [pts], False, 1.0, thickness=max(1, int(0.06 * px)), lineType=cv2.LINE_AA, shift=2)
         self._template = cv2.GaussianBlur(T, (0, 0), 0.05 * px)
-        m = np.zeros_like(T, dtype=bool)
-        x0, y0 = _box_px((-0.95, -0.6, 0.95, 1.7), px)[:2]
-        x1, y1 = _box_px((-0.95, -0.6, 0.95, 1.7), px)[2:]
-        m[y0:y1, x0:x1] = True
-        self._template_mask = m
+        self._template_box = _box_px((-0.95, -0.6, 0.95, 1.7), px)      # the part of the crop scored
 
     def _eye_centres(self, C: np.ndarray) -> np.ndarray | None:
         """Eye centres (2, 2) in crop pixels near the expected anchors (:func:`~.outlines.eye_centres`), or None."""

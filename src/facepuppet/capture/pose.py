@@ -493,7 +493,8 @@ def _eye_span(names, uv) -> float | None:
     pairs = _eye_pairs(tuple(names))
     if not pairs:
         return None
-    return max(float(np.hypot(uv[a, 0] - uv[b, 0], uv[a, 1] - uv[b, 1])) for a, b in pairs)
+    p = np.asarray(uv).tolist()
+    return max(float(np.hypot(p[a][0] - p[b][0], p[a][1] - p[b][1])) for a, b in pairs)
 
 
 @lru_cache(maxsize=64)
