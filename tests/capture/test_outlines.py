@@ -29,6 +29,10 @@ def test_morphology_and_labels_match_opencv():
         # The same partition: each of our labels maps onto exactly one of OpenCV's.
         pairs = {(a, b) for a, b in zip(labels.ravel(), labels_cv.ravel(), strict=True)}
         assert len(pairs) == n
+        # Numbered in the raster order of each part's first pixel.
+        flat = labels.ravel()
+        firsts = [np.flatnonzero(flat == k)[0] for k in range(1, n)]
+        assert firsts == sorted(firsts)
 
 
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
