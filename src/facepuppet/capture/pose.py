@@ -478,8 +478,8 @@ def _refine_pose(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray, R0: np.ndarray,
 def _reprojection_error(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray, R: np.ndarray, t: np.ndarray) -> float:
     """Mean distance (pixels) between the image points uv (N, 2) and the head points xyz (N, 3) projected."""
     total = 0.0
+    p = np.empty(3)
     for i in range(len(xyz)):
-        p = np.empty(3)
         for r in range(3):
             p[r] = R[r, 0] * xyz[i, 0] + R[r, 1] * xyz[i, 1] + R[r, 2] * xyz[i, 2] + t[r]
         z = K[2, 0] * p[0] + K[2, 1] * p[1] + K[2, 2] * p[2]
