@@ -6,7 +6,7 @@ import pytest
 
 from facepuppet.capture.blobs import close_mask, ellipse_kernel, label8, open_mask
 from facepuppet.capture.color import DEFAULT_WEIGHTS, LipHue, contrast, lip_hue_table, transform
-from facepuppet.capture.outlines import _hsv, eye_centres, feature_intensity
+from facepuppet.capture.outlines import _hsv, _median, _quantile, eye_centres, feature_intensity
 
 
 @pytest.mark.parametrize("size", range(1, 10))
@@ -29,6 +29,26 @@ def test_morphology_and_labels_match_opencv():
         # The same partition: each of our labels maps onto exactly one of OpenCV's.
         pairs = {(a, b) for a, b in zip(labels.ravel(), labels_cv.ravel(), strict=True)}
         assert len(pairs) == n
+        # Numbered in the raster order of each part's first pixel.
+        flat = labels.ravel()
+        firsts = [np.flatnonzero(flat == k)[0] for k in range(1, n)]
+        assert firsts == sorted(firsts)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_median_and_quantile_by_selection_equal_the_sorted_forms(dtype):
+    rng = np.random.default_rng(5)
+    for n in [*range(1, 30), 479, 480, 920]:
+        for a in (rng.random(n), rng.integers(0, 4, n), rng.integers(0, 256, n)):  # ties and grey levels too
+            a = a.astype(dtype)
+            d = np.sort(a)
+            assert _median(a) == 0.5 * (d[(n - 1) // 2] + d[n // 2])
+            assert np.isclose(_median(a), np.median(a.astype(np.float64)))
+            for q in (0.0, 0.5, 0.75, 0.97, 1.0):
+                pos = q * (n - 1)
+                i = min(int(pos), max(n - 2, 0))
+                assert _quantile(a, q) == float(d[i]) + (pos - i) * float(d[min(i + 1, n - 1)] - d[i])
+                assert np.isclose(_quantile(a, q), np.quantile(a.astype(np.float64), q))
 
 
 def test_hsv_is_opencvs_8bit_conversion():

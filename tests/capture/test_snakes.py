@@ -8,6 +8,7 @@ from facepuppet.capture.snakes import (
     LOWER,
     UPPER,
     SnakeConfig,
+    SnakeSolver,
     box_guess,
     minimise_snakes,
     snake_energy,
@@ -98,6 +99,19 @@ def test_fixed_ends_stay_put(fields):
     start = CURVE_A + [0.0, -3.0]
     got = minimise_snakes(start[None], np.array([UPPER]), UP, fields, CONFIG, fixed_ends=np.array([True]))[0]
     np.testing.assert_array_equal(got[[0, 3]], start[[0, 3]].astype(np.float32))
+
+
+def test_a_solver_set_up_once_finds_both_outlines_each_time(fields):
+    """A tracker's solver (sides, up-vector and options fixed) reused on several guesses: each finds its outline,
+    and the ends held fixed stay put."""
+    solve = SnakeSolver(np.array([UPPER, LOWER]), UP, CONFIG, fixed_ends=np.array([True, True]))
+    for dy in (-3.0, 2.0):
+        start = np.stack([CURVE_A, CURVE_B]) + [0.0, dy]
+        got = solve(start, fields)
+        assert _distance(got[0], CURVE_A) < 1.0 and _distance(got[1], CURVE_B) < 1.0
+        np.testing.assert_array_equal(got[:, [0, 3]], start[:, [0, 3]].astype(np.float32))
+    with pytest.raises(ValueError, match="2 curves"):
+        solve(CURVE_A[None], fields)
 
 
 def test_box_guess_is_the_top_or_bottom_edge_of_the_box():

@@ -117,10 +117,29 @@ def _morph(m: np.ndarray, kernel: np.ndarray, dilate: bool) -> np.ndarray:
 
 
 @nb.njit(**_JIT)
+def _cross(m: np.ndarray, dilate: bool) -> np.ndarray:
+    """:func:`_morph` by the 3 x 3 elliptic element, a cross: each pixel with its four neighbours (those inside
+    the image), without the padded copy (the blobs' closings and the mouth opening's opening, every frame)."""
+    h, w = m.shape
+    out = np.empty((h, w), np.uint8)
+    for y in range(h):
+        for x in range(w):
+            v = m[y, x] != 0
+            for yy, xx in ((y - 1, x), (y + 1, x), (y, x - 1), (y, x + 1)):
+                if 0 <= yy < h and 0 <= xx < w:
+                    n = m[yy, xx] != 0
+                    v = (v or n) if dilate else (v and n)
+            out[y, x] = 1 if v else 0
+    return out
+
+
+@nb.njit(**_JIT)
 def close_mask(m: np.ndarray, size: int) -> np.ndarray:
     """Closing (dilation then erosion) by the elliptic element of ``size``; ``size <= 1`` returns ``m``."""
     if size <= 1:
         return m
+    if size == 3:
+        return _cross(_cross(m, True), False)
     k = ellipse_kernel(size)
     return _morph(_morph(m, k, True), k, False)
 
@@ -130,37 +149,68 @@ def open_mask(m: np.ndarray, size: int) -> np.ndarray:
     """Opening (erosion then dilation) by the elliptic element of ``size``; ``size <= 1`` returns ``m``."""
     if size <= 1:
         return m
+    if size == 3:
+        return _cross(_cross(m, False), True)
     k = ellipse_kernel(size)
     return _morph(_morph(m, k, False), k, True)
 
 
 @nb.njit(**_JIT)
+def _root(parent: np.ndarray, k: int) -> int:
+    """The representative of provisional label ``k`` (path halving)."""
+    while parent[k] != k:
+        parent[k] = parent[parent[k]]
+        k = parent[k]
+    return k
+
+
+@nb.njit(**_JIT)
 def label8(m: np.ndarray) -> tuple[np.ndarray, int]:
-    """8-connected components of a binary mask: labels (H, W) int32 (0 background, 1.. in raster order), count."""
+    """8-connected components of a binary mask: labels (H, W) int32 (0 background, 1.. in raster order), count.
+
+    Two raster passes: provisional labels joined with those of the neighbours already seen (left, and the
+    three above), then each part numbered by the order of its first pixel, as a flood fill in raster order
+    would number it.
+    """
     h, w = m.shape
     labels = np.zeros((h, w), np.int32)
-    stack = np.empty(max(h * w, 1), np.int64)
+    parent = np.empty(h * w + 1, np.int32)
     n = 1
     for y in range(h):
         for x in range(w):
-            if m[y, x] == 0 or labels[y, x] != 0:
+            if m[y, x] == 0:
                 continue
-            labels[y, x] = n
-            stack[0] = y * w + x
-            top = 1
-            while top > 0:
-                top -= 1
-                p = stack[top]
-                py = p // w
-                px = p - py * w
-                for yy in range(max(py - 1, 0), min(py + 2, h)):
-                    for xx in range(max(px - 1, 0), min(px + 2, w)):
-                        if m[yy, xx] != 0 and labels[yy, xx] == 0:
-                            labels[yy, xx] = n
-                            stack[top] = yy * w + xx
-                            top += 1
-            n += 1
-    return labels, n
+            k = 0
+            for yy, xx in ((y, x - 1), (y - 1, x - 1), (y - 1, x), (y - 1, x + 1)):
+                if yy < 0 or xx < 0 or xx >= w:
+                    continue
+                seen = labels[yy, xx]
+                if seen == 0:
+                    continue
+                r = _root(parent, seen)
+                if k == 0:
+                    k = r
+                elif r != k:
+                    lo, hi = min(r, k), max(r, k)
+                    parent[hi] = lo
+                    k = lo
+            if k == 0:
+                parent[n] = n
+                k = n
+                n += 1
+            labels[y, x] = k
+    number = np.zeros(n, np.int32)
+    count = 1
+    for y in range(h):
+        for x in range(w):
+            k = labels[y, x]
+            if k:
+                r = _root(parent, k)
+                if number[r] == 0:
+                    number[r] = count
+                    count += 1
+                labels[y, x] = number[r]
+    return labels, count
 
 
 @nb.njit(**_JIT)

@@ -44,7 +44,7 @@ from facepuppet.capture.outlines import (
 )
 from facepuppet.capture.pose import STABLE_FEATURES, estimate_pose, points_in_head, pose_point_index
 from facepuppet.capture.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
-from facepuppet.capture.snakes import LOWER, UPPER, SnakeConfig, minimise_snakes, snake_fields
+from facepuppet.capture.snakes import LOWER, UPPER, SnakeConfig, SnakeSolver, snake_fields
 
 __all__ = ["ColorTrackerConfig", "ColorTracker"]
 
@@ -64,6 +64,7 @@ _MOUTH_BOX = BOX_NAMES.index("mouth")
 _POSE_POINTS = pose_point_index(STABLE_FEATURES)         # the stable landmarks among the curve ends
 _LIDS = np.ravel(EYES)                                     # the eyelids' curves
 _UP = np.array([0.0, -1.0])                                # the head's up-vector in the upright crop
+_EYE2 = np.eye(2)
 _CROP_ORIGIN = np.asarray(CROP_EXTENT[:2], dtype=float)
 _SNAKE_MARGIN = 8                      # crop pixels around the mouth rectangle the snakes see
 _CHEEK_L, _CHEEK_R = BOX_NAMES.index("cheek_left"), BOX_NAMES.index("cheek_right")
@@ -219,6 +220,7 @@ class ColorTracker:
         self._light: np.ndarray | None = None       # colour transform evening out the light (set at acquisition)
         self._eye_window = (int(round(config.eye_window[0] * px)), int(round(config.eye_window[1] * px)))
         self._layout_px = (np.asarray(profile.layout) - CROP_EXTENT[:2]) * px
+        self._origin_px = -_CROP_ORIGIN * px          # the face frame's origin in crop pixels
         self._set_anchors((np.asarray(profile.anchors) - CROP_EXTENT[:2]) * px)
         self._calibrated = config.anchor_calibration <= 0    # anchors calibrated on the landmark backend's eyes
         self._frame: FaceFrame | None = None
@@ -232,6 +234,7 @@ class ColorTracker:
         self._count_tracked = 0
         self._shift = np.zeros(2)
         self._make_template()
+        self._snakes = SnakeSolver(_SNAKE_SIDE, _UP, config.snake, fixed_ends=_SNAKE_FIXED)
         self._curve_filter = OneEuro(config.curve_filter)
         self._lid_filter = OneEuro(config.lid_filter)
         self._lids = {k: np.ascontiguousarray(v, dtype=np.float64) for k, v in profile.lids.items()}
@@ -463,8 +466,8 @@ class ColorTracker:
         best = None
         for cand in candidates:
             result = None
-            for _ in range(3):
-                result = self._measure(rgb, cand, follow=False, gain=1.0)
+            for step in range(3):
+                result = self._measure(rgb, cand, follow=False, gain=1.0, outline=step == 2)
                 if result is None:
                     break
                 cand = result[1]
@@ -492,15 +495,17 @@ class ColorTracker:
             self._curve_filter.reset()
             self._lid_filter.reset()
             self._frame_filter.reset()
-        M = measured.to_image()
-        units = (curves - M[:, 2]) @ np.linalg.inv(M[:, :2]).T
-        fr = self._frame_filter(np.stack([measured.origin, measured.axis]), dt, measured.unit)
-        frame = FaceFrame(fr[0], fr[1])
+        # Image pixels -> face units: the inverse of the frame's similarity [[ax, -ay], [ay, ax]] is its
+        # transpose over the squared unit.
+        ax, ay = measured.axis.tolist()
+        u2 = ax * ax + ay * ay
+        units = (curves - measured.origin) @ np.array([[ax / u2, -ay / u2], [ay / u2, ax / u2]])
+        fr = self._frame_filter(np.array([measured.origin, measured.axis]), dt, measured.unit)
         smooth = self._curve_filter(units, dt)
         if self.profile.lids:
             smooth[_LIDS, 1:3] = self._lid_filter(units[_LIDS, 1:3], dt)
-        F = frame.to_image()
-        return smooth @ F[:, :2].T + F[:, 2]
+        (ox, oy), (ax, ay) = fr.tolist()
+        return smooth @ np.array([[ax, ay], [-ay, ax]]) + np.array([ox, oy])
 
     def _features(self, curves: np.ndarray, size: tuple[int, int]) -> FrameFeatures:
         uv = curves[_POSE_POINTS]
@@ -526,8 +531,9 @@ class ColorTracker:
             self._cheek_boxes, self._eye_boxes)
         return self.intensity_last
 
-    def _measure(self, rgb: np.ndarray, frame: FaceFrame, *, follow: bool, gain: float):
-        """Track one frame in the face frame ``frame``.
+    def _measure(self, rgb: np.ndarray, frame: FaceFrame, *, follow: bool, gain: float, outline: bool = True):
+        """Track one frame in the face frame ``frame``; without ``outline``, only re-align the frame (the
+        curves are None: the steps that only move a candidate frame do not need them).
 
         Returns
         -------
@@ -555,20 +561,39 @@ class ColorTracker:
         corr = self._corr if smooth else np.array([1.0, 0.0, 0.0, 0.0])
         if eyes is not None:
             S_eye = _similarity_of_pairs(self._anchors_px[:2], eyes)
-            if 0.8 < float(np.hypot(*S_eye[:, 0])) < 1.25:
+            if 0.8 < float(np.hypot(S_eye[0, 0], S_eye[1, 0])) < 1.25:
                 v = np.array([S_eye[0, 0], S_eye[1, 0], S_eye[0, 2], S_eye[1, 2]])
                 corr = corr + gain * (v - corr) if smooth else v
             else:
                 eyes = None
-        a, b, tx, ty = corr
+        a, b, tx, ty = corr.tolist()
         S_px = np.array([[a, -b, tx], [b, a, ty]])
-        scale = float(np.hypot(*S_px[:, 0]))
-        self._shift = S_px[:, 2] + (S_px[:, :2] - np.eye(2)) @ self._anchor_mid
-        layout = self._layout_px @ S_px[:, :2].T + S_px[:, 2]
+        scale = float(np.hypot(a, b))
+        self._shift = S_px[:, 2] + (S_px[:, :2] - _EYE2) @ self._anchor_mid
         self._last_measured = (C, S_px)
         boxes = self._boxes_now()
+        # How much the crop looks like a face: needed to pick among candidates and when the skin is not seen.
+        score = self._face_score(C, S_px) if (not follow or not skin) else 1.0
+        if not skin and score < self.config.min_skinless_score and not self._skinless_ok:
+            return None
+        curves = None
+        if outline:
+            curves_px = self._outlines(C, crop, self._layout_px @ S_px[:, :2].T + S_px[:, 2], boxes, px * scale)
+            Ainv = cv2.invertAffineTransform(A)
+            curves = curves_px @ Ainv[:, :2].T + Ainv[:, 2]                 # back to image pixels
+        S = np.empty((2, 3))                                                  # S_px in face units
+        S[:, :2] = S_px[:, :2]
+        S[:, 2] = -S_px[:, :2] @ _CROP_ORIGIN + S_px[:, 2] / px + _CROP_ORIGIN
+        measured = frame.compose(S)
+        return curves, measured, eyes is not None, score, measured, corr
+
+    def _outlines(self, C: np.ndarray, crop: np.ndarray, layout: np.ndarray, boxes: np.ndarray,
+                  unit: float) -> np.ndarray:
+        """The curves (C, 4, 2) in crop pixels: §3.2's rules from the layout placed on the crop (``layout``),
+        the lips refined as snakes, the lids by the performer's eyelid model if any. ``unit``: crop pixels per
+        face unit."""
         curves_px = outline_features(C, self._raw, self._value, layout, self._mouth_offset, boxes, _BLOB_PARAMS,
-                                     px * scale, float(self.profile.mouth_reach))
+                                     unit, float(self.profile.mouth_reach))
         idx = _SNAKE_IDX
         if len(idx):
             # The snakes see the mouth rectangle and a margin (the fields are only computed there).
@@ -578,28 +603,17 @@ class ColorTracker:
             x0, y0, x1, y1 = max(x0 - m, 0), max(y0 - m, 0), min(x1 + m, w), min(y1 + m, h)
             if x1 - x0 > 2 * m and y1 - y0 > 2 * m:
                 o = np.array([x0, y0], dtype=float)
-                curves_px[idx] = minimise_snakes(curves_px[idx] - o, _SNAKE_SIDE, _UP,
-                                                 snake_fields(C[y0:y1, x0:x1], 5), self.config.snake,
-                                                 fixed_ends=_SNAKE_FIXED) + o
+                curves_px[idx] = self._snakes(curves_px[idx] - o, snake_fields(C[y0:y1, x0:x1], 5)) + o
         if self.profile.lids:
             # The performer's eyelid model reads the lids off the look of each eye (capture.lids).
             apply_lid_model(curves_px, crop, self._lids)
-        # How much the crop looks like a face: needed to pick among candidates and when the skin is not seen.
-        score = self._face_score(C, S_px) if (not follow or not skin) else 1.0
-        if not skin and score < self.config.min_skinless_score and not self._skinless_ok:
-            return None
-        # Back to image pixels.
-        Ainv = cv2.invertAffineTransform(A)
-        curves = curves_px @ Ainv[:, :2].T + Ainv[:, 2]
-        S = np.column_stack([S_px[:, :2], -S_px[:, :2] @ _CROP_ORIGIN + S_px[:, 2] / px + _CROP_ORIGIN])  # face units
-        measured = frame.compose(S)
-        return curves, measured, eyes is not None, score, measured, corr
+        return curves_px
 
     def _face_score(self, C: np.ndarray, S_px: np.ndarray) -> float:
         """Correlation of the feature intensity with the profile's layout drawn as a face (in [-1, 1])."""
         T = cv2.warpAffine(self._template, S_px.astype(np.float32), self._size, flags=cv2.INTER_LINEAR)
-        m = self._template_mask
-        a, t = C[m], T[m]
+        x0, y0, x1, y1 = self._template_box
+        a, t = C[y0:y1, x0:x1].ravel(), T[y0:y1, x0:x1].ravel()        # copies, row by row
         a = a - a.mean()
         t = t - t.mean()
         return float((a * t).sum() / max(np.sqrt((a * a).sum() * (t * t).sum()), 1e-9))
@@ -613,11 +627,7 @@ class ColorTracker:
             pts = np.round(bezier_points(L[_IDX[name]], 16) * 4).astype(np.int32)
             cv2.polylines(T, [pts], False, 1.0, thickness=max(1, int(0.06 * px)), lineType=cv2.LINE_AA, shift=2)
         self._template = cv2.GaussianBlur(T, (0, 0), 0.05 * px)
-        m = np.zeros_like(T, dtype=bool)
-        x0, y0 = _box_px((-0.95, -0.6, 0.95, 1.7), px)[:2]
-        x1, y1 = _box_px((-0.95, -0.6, 0.95, 1.7), px)[2:]
-        m[y0:y1, x0:x1] = True
-        self._template_mask = m
+        self._template_box = _box_px((-0.95, -0.6, 0.95, 1.7), px)      # the part of the crop scored
 
     def _eye_centres(self, C: np.ndarray) -> np.ndarray | None:
         """Eye centres (2, 2) in crop pixels near the expected anchors (:func:`~.outlines.eye_centres`), or None."""
@@ -638,26 +648,21 @@ class ColorTracker:
         The search starts where the alignment put the face in the last frame, so a couple of steps suffice.
         """
         # First guess: the face where the alignment last put it (reference half-res crop -> current one).
-        Ainv = cv2.invertAffineTransform(A)
-        guess = np.vstack([A, [0.0, 0.0, 1.0]]) @ np.vstack([cv2.invertAffineTransform(self._followed), [0, 0, 1]])
-        guess[:2, 2] *= self.config.follow_scale
+        f = self.config.follow_scale
+        guess = _then(cv2.invertAffineTransform(self._followed), A)
+        guess[:, 2] *= f
         try:
-            _, warp = cv2.findTransformECC(self._ref, self._grey(rgb, A), guess[:2].astype(np.float32),
+            _, warp = cv2.findTransformECC(self._ref, self._grey(rgb, A), guess.astype(np.float32),
                                            cv2.MOTION_AFFINE, (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS,
                                                                self.config.follow_iterations, 1e-3), None, 3)
         except cv2.error:
             return None
         W = warp.astype(float)
-        W[:, 2] /= self.config.follow_scale
-        self._followed = cv2.invertAffineTransform(np.column_stack([Ainv[:, :2] @ W[:, :2],
-                                                                    Ainv[:, :2] @ W[:, 2] + Ainv[:, 2]]))
-        M = Ainv[:, :2] @ W[:, :2]
-        t = Ainv[:, :2] @ W[:, 2] + Ainv[:, 2]
+        W[:, 2] /= f
+        G = _then(W, cv2.invertAffineTransform(A))      # crop pixels -> image pixels, where the face is now
+        self._followed = cv2.invertAffineTransform(G)
         px = self.config.px
-        o_crop = np.array([-CROP_EXTENT[0], -CROP_EXTENT[1]]) * px
-        origin = M @ o_crop + t
-        axis = M @ np.array([px, 0.0])
-        return FaceFrame(origin, axis)
+        return FaceFrame(G[:, :2] @ self._origin_px + G[:, 2], G[:, 0] * px)
 
     def _skin_ok(self, crop: np.ndarray) -> bool:
         """Whether the cheeks of the crop look like skin (the profile's skin model, over 30 % of the pixels)."""
@@ -674,10 +679,18 @@ def _same_frame(a: FaceFrame, b: FaceFrame, move: float = 0.1, size: float = 0.1
     return bool(np.hypot(*(a.origin - b.origin)) < move * a.unit and abs(np.log(a.unit / b.unit)) < size)
 
 
+def _then(P: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """The affine map (2, 3) that applies ``P`` (2, 3), then ``Q`` (2, 3)."""
+    out = np.empty((2, 3))
+    out[:, :2] = Q[:, :2] @ P[:, :2]
+    out[:, 2] = Q[:, :2] @ P[:, 2] + Q[:, 2]
+    return out
+
+
 def _similarity_of_pairs(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
     """The similarity (2, 3) taking the two points ``src`` (2, 2) exactly onto ``dst`` (2, 2)."""
-    (sx0, sy0), (sx1, sy1) = src
-    (dx0, dy0), (dx1, dy1) = dst
+    (sx0, sy0), (sx1, sy1) = np.asarray(src).tolist()
+    (dx0, dy0), (dx1, dy1) = np.asarray(dst).tolist()
     ux, uy, vx, vy = sx1 - sx0, sy1 - sy0, dx1 - dx0, dy1 - dy0
     den = max(ux * ux + uy * uy, 1e-12)
     a, b = (ux * vx + uy * vy) / den, (ux * vy - uy * vx) / den

@@ -249,7 +249,7 @@ class FaceFrame:
     @property
     def unit(self) -> float:
         """Face unit (distance between the eye centres) in pixels."""
-        return float(np.hypot(*self.axis))
+        return float(np.hypot(self.axis[0], self.axis[1]))
 
     @property
     def roll(self) -> float:
@@ -263,22 +263,24 @@ class FaceFrame:
 
     def crop_matrix(self, px: float, extent: tuple[float, float, float, float] = CROP_EXTENT) -> np.ndarray:
         """(2, 3) affine from image pixels to crop pixels (``px`` crop pixels per face unit)."""
-        ax, ay = self.axis / (self.unit ** 2)
-        # face units: u = R^T (x - o) / unit, crop: c = (u - (x0, y0)) * px
-        A = np.array([[ax, ay], [-ay, ax]]) * px
-        t = -A @ self.origin - np.array([extent[0], extent[1]]) * px
-        return np.column_stack([A, t])
+        # face units: u = R^T (x - o) / unit, crop: c = (u - (x0, y0)) * px. Scalar arithmetic: this runs a few
+        # times per tracked frame, where numpy's per-call cost would outweigh the sums.
+        (ax, ay), (ox, oy) = self.axis.tolist(), self.origin.tolist()
+        u2 = self.unit ** 2
+        a, b = ax / u2 * px, ay / u2 * px
+        return np.array([[a, b, -(a * ox + b * oy) - extent[0] * px],
+                         [-b, a, -(a * oy - b * ox) - extent[1] * px]])
 
     def crop_size(self, px: float, extent: tuple[float, float, float, float] = CROP_EXTENT) -> tuple[int, int]:
         return int(round((extent[2] - extent[0]) * px)), int(round((extent[3] - extent[1]) * px))
 
     def compose(self, correction: np.ndarray) -> FaceFrame:
         """The frame moved by a similarity ``correction`` (2, 3) acting in face units."""
-        S = np.asarray(correction, dtype=float)
-        M = self.to_image()
-        o = M[:, :2] @ S[:, 2] + M[:, 2]
-        ax = M[:, :2] @ S[:, :2] @ np.array([1.0, 0.0])
-        return FaceFrame(o, ax)
+        (s00, _, s02), (s10, _, s12) = np.asarray(correction, dtype=float).tolist()
+        (ax, ay), (ox, oy) = self.axis.tolist(), self.origin.tolist()
+        # to_image() is [[ax, -ay, ox], [ay, ax, oy]]; the new axis is its rotation part applied to S's first column.
+        return FaceFrame(np.array([ax * s02 - ay * s12 + ox, ay * s02 + ax * s12 + oy]),
+                         np.array([ax * s00 - ay * s10, ay * s00 + ax * s10]))
 
     def blend(self, other: FaceFrame, alpha: float) -> FaceFrame:
         """(1 − alpha) self + alpha other, in origin, log-scale and roll."""

@@ -342,8 +342,8 @@ def estimate_pose(image_points: Mapping[str, np.ndarray] | np.ndarray, frame_siz
     import cv2
 
     names, uv, xyz = _as_correspondences(image_points, names)
-    finite = np.isfinite(uv).all(axis=1)
-    if not finite.all():
+    if not np.isfinite(uv).all():
+        finite = np.isfinite(uv).all(axis=1)
         uv, xyz = uv[finite], xyz[finite]
         names = tuple(n for n, ok in zip(names, finite, strict=True) if ok)
     if len(uv) < 4:
@@ -381,8 +381,7 @@ def _checked_pose(R: np.ndarray, t: np.ndarray, K: np.ndarray, xyz: np.ndarray, 
                   names: tuple[str, ...]) -> HeadPose | FailedPose:
     if t[2] <= 0:
         return FailedPose("head pose puts the head behind the camera")
-    proj = (xyz @ R.T + t) @ K.T
-    err = float(np.sqrt(((proj[:, :2] / proj[:, 2:3] - uv) ** 2).sum(1)).mean())
+    err = _reprojection_error(xyz, uv, K, R, t)
     scale = _eye_span(names, uv)
     if scale is not None and err > _MAX_REPROJECTION * scale:
         return FailedPose(f"generic face does not fit the landmarks (mean reprojection error {err:.1f} px)")
@@ -475,9 +474,27 @@ def _refine_pose(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray, R0: np.ndarray,
     return R, t, False
 
 
+@nb.njit(cache=True, nogil=True)
+def _reprojection_error(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray, R: np.ndarray, t: np.ndarray) -> float:
+    """Mean distance (pixels) between the image points uv (N, 2) and the head points xyz (N, 3) projected."""
+    total = 0.0
+    p = np.empty(3)
+    for i in range(len(xyz)):
+        for r in range(3):
+            p[r] = R[r, 0] * xyz[i, 0] + R[r, 1] * xyz[i, 1] + R[r, 2] * xyz[i, 2] + t[r]
+        z = K[2, 0] * p[0] + K[2, 1] * p[1] + K[2, 2] * p[2]
+        du = (K[0, 0] * p[0] + K[0, 1] * p[1] + K[0, 2] * p[2]) / z - uv[i, 0]
+        dv = (K[1, 0] * p[0] + K[1, 1] * p[1] + K[1, 2] * p[2]) / z - uv[i, 1]
+        total += np.sqrt(du * du + dv * dv)
+    return total / len(xyz)
+
+
 def _eye_span(names, uv) -> float | None:
     pairs = _eye_pairs(tuple(names))
-    return float(max(np.hypot(*(uv[a] - uv[b])) for a, b in pairs)) if pairs else None
+    if not pairs:
+        return None
+    p = np.asarray(uv).tolist()
+    return max(float(np.hypot(p[a][0] - p[b][0], p[a][1] - p[b][1])) for a, b in pairs)
 
 
 @lru_cache(maxsize=64)
@@ -522,13 +539,35 @@ def points_in_head(curves: np.ndarray, pose: HeadPose, frame_size: tuple[int, in
     else:
         K = _camera(float(frame_size[0]), float(frame_size[1]), None if focal is None else float(focal))
     R, t = np.asarray(pose.rotation, dtype=float), np.asarray(pose.translation, dtype=float)
-    uv = np.matmul(_SAMPLE_BASIS, curves).reshape(-1, 2)          # curve_points: (P, 2)
-    rays = np.column_stack([(uv[:, 0] - K[0, 2]) / K[0, 0], (uv[:, 1] - K[1, 2]) / K[1, 1], np.ones(len(uv))])
-    normal = R[:, 2]                                                # head z axis in the camera
-    anchor = generic @ R.T + t                                      # generic points in the camera
-    denom = rays @ normal
-    with np.errstate(divide="ignore", invalid="ignore"):
-        depth = (anchor @ normal) / denom                           # ray parameter: X = depth * ray
-        depth = np.where(np.abs(denom) > 1e-6, depth, np.nan)
-    cam = rays * depth[:, None]
-    return (cam - t) @ R                                            # Rᵀ (x − t), row-wise
+    return _back_project(np.ascontiguousarray(curves), _SAMPLE_BASIS, np.ascontiguousarray(generic, dtype=float),
+                         np.asarray(K, dtype=float), np.ascontiguousarray(R), np.ascontiguousarray(t))
+
+
+@nb.njit(cache=True, nogil=True)
+def _back_project(curves: np.ndarray, basis: np.ndarray, generic: np.ndarray, K: np.ndarray, R: np.ndarray,
+                  t: np.ndarray) -> np.ndarray:
+    """The work of :func:`points_in_head`: each curve sample's camera ray X = depth · ray met with the plane
+    through its generic point with normal the head's z axis, then Rᵀ (X − t); NaN where the ray runs along
+    the plane."""
+    n_curves, n_samples = curves.shape[0], basis.shape[0]
+    out = np.empty((n_curves * n_samples, 3))
+    nx, ny, nz = R[0, 2], R[1, 2], R[2, 2]                          # head z axis in the camera
+    for c in range(n_curves):
+        for s in range(n_samples):
+            i = c * n_samples + s
+            u = v = 0.0
+            for j in range(4):
+                u += basis[s, j] * curves[c, j, 0]
+                v += basis[s, j] * curves[c, j, 1]
+            rx, ry = (u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1]
+            denom = rx * nx + ry * ny + nz
+            depth = np.nan
+            if abs(denom) > 1e-6:
+                a = 0.0                                             # generic point in the camera, along the normal
+                for r in range(3):
+                    a += (R[r, 0] * generic[i, 0] + R[r, 1] * generic[i, 1] + R[r, 2] * generic[i, 2] + t[r]) * R[r, 2]
+                depth = a / denom
+            d0, d1, d2 = rx * depth - t[0], ry * depth - t[1], depth - t[2]
+            for k in range(3):
+                out[i, k] = d0 * R[0, k] + d1 * R[1, k] + d2 * R[2, k]
+    return out

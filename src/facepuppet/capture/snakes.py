@@ -16,6 +16,7 @@ lies in the feature and the outer one on skin, which tells curve A from curve B 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import cv2
 import numba as nb
@@ -23,7 +24,8 @@ import numpy as np
 
 from facepuppet.capture.curves import bernstein
 
-__all__ = ["SnakeConfig", "snake_fields", "snake_energy", "minimise_snakes", "box_guess", "UPPER", "LOWER"]
+__all__ = ["SnakeConfig", "SnakeSolver", "snake_fields", "snake_energy", "minimise_snakes", "box_guess", "UPPER",
+           "LOWER"]
 
 #: The feature lies below the curve (the curve is its upper boundary, curve A of Fig. 3).
 UPPER = 1.0
@@ -83,8 +85,14 @@ def snake_fields(intensity: np.ndarray, blur: int = 5) -> np.ndarray:
     img = np.ascontiguousarray(intensity, dtype=np.float32)
     if img.ndim != 2 or min(img.shape) < 2:
         raise ValueError(f"intensity must be a 2-D image of at least 2 x 2 pixels, got shape {img.shape}")
+    return _fields(img, _taps(int(blur)))
+
+
+@lru_cache(maxsize=8)
+def _taps(blur: int) -> np.ndarray:
+    """OpenCV's Gaussian kernel of ``blur`` taps (sigma from the size), float32; one tap of 1 for ``blur <= 1``."""
     taps = cv2.getGaussianKernel(blur, 0).ravel() if blur > 1 else np.ones(1)
-    return _fields(img, taps.astype(np.float32))
+    return taps.astype(np.float32)              # shared by the calls: not to be modified
 
 
 @nb.njit(cache=True, nogil=True)
@@ -98,26 +106,17 @@ def _reflect(i: int, n: int) -> int:
 
 
 @nb.njit(cache=True, nogil=True)
-def _padded(img: np.ndarray, r: int) -> np.ndarray:
-    """``img`` with ``r`` reflected pixels on every side."""
-    h, w = img.shape
-    out = np.empty((h + 2 * r, w + 2 * r), np.float32)
-    for y in range(h + 2 * r):
-        sy = _reflect(y - r, h)
-        for x in range(w + 2 * r):
-            out[y, x] = img[sy, _reflect(x - r, w)]
-    return out
-
-
-@nb.njit(cache=True, nogil=True)
 def _central(img: np.ndarray, out: np.ndarray, cx: int, cy: int) -> None:
-    """Central differences (f(+1) - f(-1)) / 2 along x into channel ``cx`` and along y into ``cy``."""
+    """Central differences (f(+1) - f(-1)) / 2 along x into channel ``cx`` and along y into ``cy`` (reflected
+    borders)."""
     h, w = img.shape
-    p = _padded(img, 1)
     for y in range(h):
+        ym, yp = _reflect(y - 1, h), _reflect(y + 1, h)
         for x in range(w):
-            out[y, x, cx] = 0.5 * (p[y + 1, x + 2] - p[y + 1, x])
-            out[y, x, cy] = 0.5 * (p[y + 2, x + 1] - p[y, x + 1])
+            xm = x - 1 if x > 0 else _reflect(-1, w)
+            xp = x + 1 if x < w - 1 else _reflect(w, w)
+            out[y, x, cx] = 0.5 * (img[y, xp] - img[y, xm])
+            out[y, x, cy] = 0.5 * (img[yp, x] - img[ym, x])
 
 
 @nb.njit(cache=True, nogil=True)
@@ -127,23 +126,30 @@ def _fields(img: np.ndarray, taps: np.ndarray) -> np.ndarray:
     h, w = img.shape
     n = len(taps)
     r = n // 2
-    p = _padded(img, r)
-    tmp = np.zeros((h + 2 * r, w), np.float32)
-    for y in range(h + 2 * r):
+    # Along the rows (each row padded by reflection), then along the columns (rows read reflected).
+    row = np.empty(w + 2 * r, np.float32)
+    tmp = np.zeros((h, w), np.float32)
+    for y in range(h):
+        for x in range(w + 2 * r):
+            row[x] = img[y, _reflect(x - r, w)]
         for k in range(n):
             t = taps[k]
             for x in range(w):
-                tmp[y, x] += t * p[y, x + k]
+                tmp[y, x] += t * row[x + k]
     blurred = np.zeros((h, w), np.float32)
     for y in range(h):
         for k in range(n):
             t = taps[k]
+            src = tmp[_reflect(y + k - r, h)]
             for x in range(w):
-                blurred[y, x] += t * tmp[y + k, x]
+                blurred[y, x] += t * src[x]
     out = np.empty((h, w, 5), np.float32)
-    out[:, :, 0] = blurred
     _central(blurred, out, 1, 2)
-    mag = out[:, :, 1] * out[:, :, 1] + out[:, :, 2] * out[:, :, 2]
+    mag = np.empty((h, w), np.float32)
+    for y in range(h):
+        for x in range(w):
+            out[y, x, 0] = blurred[y, x]
+            mag[y, x] = out[y, x, 1] * out[y, x, 1] + out[y, x, 2] * out[y, x, 2]
     _central(mag, out, 3, 4)
     return out
 
@@ -232,23 +238,47 @@ def minimise_snakes(ctrl: np.ndarray, side: np.ndarray, up: np.ndarray, fields: 
     -------
     (C, 4, 2) float32
     """
-    b, prof = _Basis.get(config.samples)
-    x = np.array(ctrl, dtype=np.float32)
-    c = len(x)
-    if c == 0:
-        return x
-    inward = _offset_dirs(side, up) * np.float32(config.offset)
-    shift = prof[None, :, None] * inward[:, None, :]
-    mask = np.ones((c, 4, 1), dtype=np.float32)
-    if not config.move_ends:
-        mask[:, [0, 3]] = 0.0
-    if fixed_ends is not None:
-        fe = np.asarray(fixed_ends, dtype=bool)
-        mask[fe, 0] = 0.0
-        mask[fe, 3] = 0.0
-    return _descend(x, shift, mask, b.astype(np.float64), np.ascontiguousarray(fields, dtype=np.float32),
-                    float(config.w_edge), float(config.w_in), float(config.w_out), float(config.step),
-                    float(config.decay), int(config.iterations))
+    return SnakeSolver(side, up, config, fixed_ends)(ctrl, fields)
+
+
+class SnakeSolver:
+    """:func:`minimise_snakes` for fixed sides, up-vector, options and fixed ends: what depends only on these
+    (the offset curves' shifts, the movable control points, the Bernstein samples) is set up once, so a
+    tracker that refines the same curves every frame pays only for the downhill steps.
+
+    Parameters
+    ----------
+    side, up, config, fixed_ends
+        As :func:`minimise_snakes`.
+    """
+
+    def __init__(self, side: np.ndarray, up: np.ndarray, config: SnakeConfig = SnakeConfig(),
+                 fixed_ends: np.ndarray | None = None):
+        b, prof = _Basis.get(config.samples)
+        c = len(side)
+        inward = _offset_dirs(side, up) * np.float32(config.offset)
+        self._shift = prof[None, :, None] * inward[:, None, :]
+        mask = np.ones((c, 4, 1), dtype=np.float32)
+        if not config.move_ends:
+            mask[:, [0, 3]] = 0.0
+        if fixed_ends is not None:
+            fe = np.asarray(fixed_ends, dtype=bool)
+            mask[fe, 0] = 0.0
+            mask[fe, 3] = 0.0
+        self._mask = mask
+        self._basis = b.astype(np.float64)
+        self._steps = (float(config.w_edge), float(config.w_in), float(config.w_out), float(config.step),
+                       float(config.decay), int(config.iterations))
+
+    def __call__(self, ctrl: np.ndarray, fields: np.ndarray) -> np.ndarray:
+        """The curves ``ctrl`` (C, 4, 2) minimised in ``fields`` (H, W, 5) -> (C, 4, 2) float32."""
+        x = np.array(ctrl, dtype=np.float32)
+        if len(x) == 0:
+            return x
+        if len(x) != len(self._mask):
+            raise ValueError(f"ctrl must hold the solver's {len(self._mask)} curves, got {len(x)}")
+        return _descend(x, self._shift, self._mask, self._basis, np.ascontiguousarray(fields, dtype=np.float32),
+                        *self._steps)
 
 
 @nb.njit(cache=True, nogil=True)
