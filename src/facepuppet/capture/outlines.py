@@ -8,7 +8,10 @@ column profile:
   its top (the landmark convention); the upper lid never crosses the lower one;
 * brows: on the raw Eq. 1 intensity normalised inside the rectangle (forehead skin at the median), the brow
   curve onto its upper edge, at most half the brow's thickness down (the upper edge is sharp, the lower
-  may merge with the lid's shadow);
+  may merge with the lid's shadow); then the brow's upper edge is followed on the HSV value, from that
+  curve up (a glasses' rim or the lid's shadow may hold the blob's top, a faint brow lies above them), and
+  the curve's ends reach out as far as the edge goes (a brow on the near side of a turned head is wider
+  than the layout's);
 * mouth: corners and outer lips from the blob's outline, inner lips from the mouth opening inside it (dark
   pixels or pixels the blob leaves out between its top and bottom, as teeth), or the lip crease when closed.
 
@@ -56,6 +59,19 @@ _BROW_DEPTH = 0.05
 _BROW_TILT = 0.5
 _BROW_TILT_FLOOR = 0.1
 _BROW_THICK = 0.25
+
+#: The brow's upper edge on the HSV value (:func:`_brow_edges`), face units unless said: rows averaged above
+#: and below the edge, how far above the blob's curve it is searched, columns searched beyond the rectangle,
+#: the least contrast (fraction of the forehead's value) of the edge's middle for it to count, the fraction of
+#: that contrast the edge keeps along the brow's extent, the farthest the curve ends reach beyond the layout's,
+#: and the farthest the curve moves up or down.
+_EDGE_ROWS = 0.08
+_EDGE_UP = 0.2
+_EDGE_MARGIN = 0.2
+_EDGE_FLOOR = 0.05
+_EDGE_KEEP = 0.4
+_BROW_REACH = 0.35
+_BROW_SHIFT = 0.2
 
 _K = 12                                                 # boundary samples per curve
 _B = bernstein(np.linspace(0.0, 1.0, _K))               # (K, 4)
@@ -255,6 +271,153 @@ def _brows(raw: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: np.ndarr
 
 
 @nb.njit(**_JIT)
+def _closed_columns(value: np.ndarray, x0: int, x1: int, y0: int, y1: int) -> np.ndarray:
+    """``value`` over rows y0..y1 and columns x0..x1 (clipped to the image) closed along the columns by three
+    pixels (the largest of each pixel and its neighbours above and below, then the smallest of those): dark
+    lines one or two pixels thick, a glasses' rim, a wrinkle, take their surroundings' value; thicker dark
+    bands, brows, stay. Pixels outside the image take no part. Returns (y1 - y0, x1 - x0) float64."""
+    h = value.shape[0]
+    out = np.empty((y1 - y0, x1 - x0))
+    grown = np.empty(3)
+    for x in range(x0, x1):
+        for y in range(y0, y1):
+            for k in range(3):
+                r = y - 1 + k
+                grown[k] = -1.0
+                if 0 <= r < h:
+                    for q in range(max(r - 1, 0), min(r + 2, h)):
+                        grown[k] = max(grown[k], float(value[q, x]))
+            least = np.inf
+            for k in range(3):
+                if grown[k] >= 0.0:
+                    least = min(least, grown[k])
+            out[y - y0, x - x0] = least
+    return out
+
+
+@nb.njit(**_JIT)
+def _upper_edge(value: np.ndarray, prior: np.ndarray, x0: int, x1: int, y0: int, y1: int, box: np.ndarray,
+                unit: float):
+    """The brow's upper edge in columns x0..x1: bright forehead above, darker brow below, on the closed value
+    (:func:`_closed_columns`), searched in rows y0..y1 from ``_EDGE_UP`` face units above the curve ``prior``
+    (its row per column) down to it, as one path that moves at most a row per column (dynamic programming).
+
+    Returns (rows, contrast): the edge's row per column (the pixel boundary between the forehead and the brow)
+    and its contrast there, the mean value of ``_EDGE_ROWS`` face units above minus that below over the
+    forehead's value (the median over the rectangle ``box``, within the columns searched).
+    """
+    h = value.shape[0]
+    n = x1 - x0
+    s = max(int(round(_EDGE_ROWS * unit)), 2)
+    ya, yb = max(y0 - s, 0), min(y1 + s, h)
+    V = _closed_columns(value, x0, x1, ya, yb)
+    m = y1 - y0
+    bx0, bx1 = min(max(box[0], x0), x1), min(max(box[2], x0), x1)
+    forehead = _median(V[y0 - ya:y1 - ya, bx0 - x0:bx1 - x0].copy().ravel()) if bx1 > bx0 else 0.0
+    # Column sums from the top, for the means above and below each row.
+    cs = np.zeros((yb - ya + 1, n))
+    for r in range(yb - ya):
+        cs[r + 1] = cs[r] + V[r]
+    R = np.full((m, n), -1e9)
+    for x in range(n):
+        for i in range(m):
+            y = y0 + i
+            if not (prior[x] - _EDGE_UP * unit <= y <= prior[x]):
+                continue
+            a, b = max(y - s, ya), min(y + s, yb)
+            if a >= y or b <= y:
+                continue
+            above = (cs[y - ya, x] - cs[a - ya, x]) / (y - a)
+            below = (cs[b - ya, x] - cs[y - ya, x]) / (b - y)
+            R[i, x] = (above - below) / max(forehead, 1.0)
+    acc = R[:, 0].copy()
+    back = np.zeros((m, n), np.int64)
+    nxt = np.empty(m)
+    for x in range(1, n):
+        for i in range(m):
+            best, arg = acc[i], i
+            if i > 0 and acc[i - 1] > best:
+                best, arg = acc[i - 1], i - 1
+            if i < m - 1 and acc[i + 1] > best:
+                best, arg = acc[i + 1], i + 1
+            nxt[i] = best + R[i, x]
+            back[i, x] = arg
+        acc[:] = nxt
+    rows = np.empty(n)
+    contrast = np.empty(n)
+    i = int(np.argmax(acc))
+    for x in range(n - 1, -1, -1):
+        rows[x] = y0 + i
+        contrast[x] = R[i, x]
+        i = back[i, x]
+    return rows, contrast
+
+
+@nb.njit(**_JIT)
+def _brow_edges(value: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: np.ndarray, unit: float) -> None:
+    """Each brow curve onto the brow's upper edge on the HSV value, its ends out to the edge's extent.
+
+    The edge is searched from the blob's curve (:func:`_brows`) up: what held the blob's top may be a
+    glasses' rim or the lid's shadow under a faint brow, never something above the brow. Where the edge's
+    middle is too faint (no brow seen), the blob's curve stays. The brow's extent is the run of columns around
+    the middle where the edge keeps ``_EDGE_KEEP`` of the middle's contrast; the layout's curve is stretched
+    out to it (never shrunk: a brow's tail may fade), ``_BROW_DEPTH`` below the edge, and tilted onto it as
+    in :func:`_brows`.
+    """
+    h, w = value.shape
+    for side in range(2):
+        x0, y0, x1, y1 = boxes[2 + side]
+        if x1 <= x0 or y1 <= y0:
+            continue
+        c = _BROW[side]
+        margin = int(round(_EDGE_MARGIN * unit))
+        xa, xb = max(x0 - margin, 0), min(x1 + margin, w)
+        n = xb - xa
+        if n < 6:
+            continue
+        # The blob's curve, row per column (level beyond its ends).
+        px = _along(out[c], 0)
+        py = _along(out[c], 1)
+        order = np.argsort(px)
+        cols = np.arange(xa, xb) + 0.5
+        prior = np.interp(cols, px[order], py[order])
+        rows, contrast = _upper_edge(value, prior, xa, xb, y0, y1, boxes[2 + side], unit)
+        mid = int(np.argmin(np.abs(cols - 0.25 * out[c, :, 0].sum())))
+        k = max(n // 6, 1)
+        middle = _median(contrast[max(mid - k, 0):min(mid + k + 1, n)].copy())
+        if middle <= _EDGE_FLOOR:
+            continue
+        level = _EDGE_KEEP * middle
+        # The run of columns around the middle where the edge holds (gaps of one column bridged).
+        i0 = mid
+        while i0 > 0 and (contrast[i0 - 1] > level or (i0 > 1 and contrast[i0 - 2] > level)):
+            i0 -= 1
+        i1 = mid
+        while i1 < n - 1 and (contrast[i1 + 1] > level or (i1 < n - 2 and contrast[i1 + 2] > level)):
+            i1 += 1
+        lo = min(layout[c, 0, 0], layout[c, 3, 0])
+        hi = max(layout[c, 0, 0], layout[c, 3, 0])
+        a0 = min(max(cols[i0] - 0.5, lo - _BROW_REACH * unit), lo)
+        a1 = max(min(cols[i1] + 0.5, hi + _BROW_REACH * unit), hi)
+        curve = layout[c].copy()
+        for j in range(4):
+            curve[j, 0] = a0 + (layout[c, j, 0] - lo) * (a1 - a0) / max(hi - lo, 1e-6)
+        xs = _along(curve, 0)
+        inside = (xs >= cols[i0]) & (xs <= cols[i1])
+        if inside.sum() < 4:
+            continue
+        r = np.interp(xs, cols, rows + _BROW_DEPTH * unit) - _along(curve, 1)
+        b = _line_fit(xs[inside], r[inside])[1]
+        b = min(max(b - min(max(b, -_BROW_TILT_FLOOR), _BROW_TILT_FLOOR), -_BROW_TILT), _BROW_TILT)
+        xm = xs.mean()
+        a = _median((r - b * (xs - xm))[inside])
+        a = min(max(a, -_BROW_SHIFT * unit), _BROW_SHIFT * unit)
+        for j in range(4):
+            curve[j, 1] += a + b * (curve[j, 0] - xm)
+        out[c] = curve
+
+
+@nb.njit(**_JIT)
 def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.ndarray, value: np.ndarray,
              skin: float, unit: float):
     """Top and bottom of the mouth opening per column of the mouth rectangle (the lip crease if closed).
@@ -410,6 +573,7 @@ def outline_features(C: np.ndarray, raw: np.ndarray, value: np.ndarray, layout: 
     out = layout.copy()
     _eyes(C, layout, out, boxes, blob_params[0], unit)
     _brows(raw, layout, out, boxes, blob_params[1], unit)
+    _brow_edges(value, layout, out, boxes, unit)
     _mouth(C, value, layout, mouth_offset, out, boxes, blob_params[2], unit, mouth_reach)
     return out
 
