@@ -302,9 +302,9 @@ def _upper_edge(value: np.ndarray, prior: np.ndarray, x0: int, x1: int, y0: int,
     (:func:`_closed_columns`), searched in rows y0..y1 from ``_EDGE_UP`` face units above the curve ``prior``
     (its row per column) down to it, as one path that moves at most a row per column (dynamic programming).
 
-    Returns (rows, contrast): the edge's row per column (the pixel boundary between the forehead and the brow)
-    and its contrast there, the mean value of ``_EDGE_ROWS`` face units above minus that below over the
-    forehead's value (the median over the rectangle ``box``, within the columns searched).
+    Returns (rows, contrast): the edge's row per column (the pixel boundary between the forehead and the brow,
+    to a fraction of a row) and its contrast there, the mean value of ``_EDGE_ROWS`` face units above minus
+    that below over the forehead's value (the median over the rectangle ``box``, within the columns searched).
     """
     h = value.shape[0]
     n = x1 - x0
@@ -347,7 +347,13 @@ def _upper_edge(value: np.ndarray, prior: np.ndarray, x0: int, x1: int, y0: int,
     contrast = np.empty(n)
     i = int(np.argmax(acc))
     for x in range(n - 1, -1, -1):
-        rows[x] = y0 + i
+        # To a fraction of a row: the parabola through the contrast of the row and its neighbours.
+        frac = 0.0
+        if 0 < i < m - 1 and R[i - 1, x] > -1e8 and R[i + 1, x] > -1e8:
+            curv = R[i - 1, x] - 2.0 * R[i, x] + R[i + 1, x]
+            if curv < 0.0:
+                frac = min(max(0.5 * (R[i - 1, x] - R[i + 1, x]) / curv, -0.5), 0.5)
+        rows[x] = y0 + i + frac
         contrast[x] = R[i, x]
         i = back[i, x]
     return rows, contrast
@@ -360,9 +366,9 @@ def _brow_edges(value: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: n
     The edge is searched from the blob's curve (:func:`_brows`) up: what held the blob's top may be a
     glasses' rim or the lid's shadow under a faint brow, never something above the brow. Where the edge's
     middle is too faint (no brow seen), the blob's curve stays. The brow's extent is the run of columns around
-    the middle where the edge keeps ``_EDGE_KEEP`` of the middle's contrast; the layout's curve is stretched
-    out to it (never shrunk: a brow's tail may fade), ``_BROW_DEPTH`` below the edge, and tilted onto it as
-    in :func:`_brows`.
+    the middle where the edge keeps ``_EDGE_KEEP`` of the middle's contrast, its ends read off the run's
+    moments; the layout's curve is stretched out to them (never shrunk: a brow's tail may fade), placed
+    ``_BROW_DEPTH`` below the edge and tilted onto it as in :func:`_brows`.
     """
     h, w = value.shape
     for side in range(2):
@@ -382,6 +388,11 @@ def _brow_edges(value: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: n
         cols = np.arange(xa, xb) + 0.5
         prior = np.interp(cols, px[order], py[order])
         rows, contrast = _upper_edge(value, prior, xa, xb, y0, y1, boxes[2 + side], unit)
+        # The contrast averaged over a few columns (the extent's noise).
+        sm = np.empty(n)
+        for i in range(n):
+            sm[i] = contrast[max(i - 2, 0):min(i + 3, n)].mean()
+        contrast = sm
         mid = int(np.argmin(np.abs(cols - 0.25 * out[c, :, 0].sum())))
         k = max(n // 6, 1)
         middle = _median(contrast[max(mid - k, 0):min(mid + k + 1, n)].copy())
@@ -395,10 +406,23 @@ def _brow_edges(value: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: n
         i1 = mid
         while i1 < n - 1 and (contrast[i1 + 1] > level or (i1 < n - 2 and contrast[i1 + 2] > level)):
             i1 += 1
+        # The run's ends from its moments (an even band of length L has mean ± sqrt(3) sd at its ends), each
+        # column weighted by its contrast over the level, up to the middle's: steadier than the run's ends.
+        sw = sx = sxx = 0.0
+        for i in range(i0, i1 + 1):
+            wgt = min(max(contrast[i], level), middle) - level
+            sw += wgt
+            sx += wgt * cols[i]
+            sxx += wgt * cols[i] * cols[i]
+        if sw <= 0.0:
+            continue
+        mean = sx / sw
+        sd = np.sqrt(max(sxx / sw - mean * mean, 0.0))
+        e0, e1 = mean - np.sqrt(3.0) * sd, mean + np.sqrt(3.0) * sd
         lo = min(layout[c, 0, 0], layout[c, 3, 0])
         hi = max(layout[c, 0, 0], layout[c, 3, 0])
-        a0 = min(max(cols[i0] - 0.5, lo - _BROW_REACH * unit), lo)
-        a1 = max(min(cols[i1] + 0.5, hi + _BROW_REACH * unit), hi)
+        a0 = lo - min(max(lo - e0, 0.0), _BROW_REACH * unit)
+        a1 = hi + min(max(e1 - hi, 0.0), _BROW_REACH * unit)
         curve = layout[c].copy()
         for j in range(4):
             curve[j, 0] = a0 + (layout[c, j, 0] - lo) * (a1 - a0) / max(hi - lo, 1e-6)
