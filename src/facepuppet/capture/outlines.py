@@ -338,9 +338,13 @@ def _upper_edge(value: np.ndarray, prior: np.ndarray, x0: int, x1: int, y0: int,
     s = max(int(round(_EDGE_ROWS * unit)), 2)
     ya, yb = max(y0 - s, 0), min(y1 + s, h)
     V = _closed_columns(value, x0, x1, ya, yb)
-    m = y1 - y0
     bx0, bx1 = min(max(box[0], x0), x1), min(max(box[2], x0), x1)
     forehead = _median_level(V[y0 - ya:y1 - ya, bx0 - x0:bx1 - x0].copy()) if bx1 > bx0 else 0.0
+    # Only the rows some column may search.
+    ra = max(y0, int(np.ceil(prior.min() - _EDGE_UP * unit)))
+    m = min(y1, int(np.floor(prior.max())) + 1) - ra
+    if m <= 0:
+        return prior.copy(), np.zeros(n)
     # Column sums from the top, for the means above and below each row.
     cs = np.zeros((yb - ya + 1, n))
     for r in range(yb - ya):
@@ -348,7 +352,7 @@ def _upper_edge(value: np.ndarray, prior: np.ndarray, x0: int, x1: int, y0: int,
     R = np.full((m, n), -1e9)
     for x in range(n):
         for i in range(m):
-            y = y0 + i
+            y = ra + i
             if not (prior[x] - _EDGE_UP * unit <= y <= prior[x]):
                 continue
             a, b = max(y - s, ya), min(y + s, yb)
@@ -380,7 +384,7 @@ def _upper_edge(value: np.ndarray, prior: np.ndarray, x0: int, x1: int, y0: int,
             curv = R[i - 1, x] - 2.0 * R[i, x] + R[i + 1, x]
             if curv < 0.0:
                 frac = min(max(0.5 * (R[i - 1, x] - R[i + 1, x]) / curv, -0.5), 0.5)
-        rows[x] = y0 + i + frac
+        rows[x] = ra + i + frac
         contrast[x] = R[i, x]
         i = back[i, x]
     return rows, contrast
