@@ -346,9 +346,11 @@ def _upper_edge(value: np.ndarray, prior: np.ndarray, x0: int, x1: int, y0: int,
     if m <= 0:
         return prior.copy(), np.zeros(n)
     # Column sums from the top, for the means above and below each row.
-    cs = np.zeros((yb - ya + 1, n))
+    cs = np.empty((yb - ya + 1, n))
+    cs[0] = 0.0
     for r in range(yb - ya):
-        cs[r + 1] = cs[r] + V[r]
+        for x in range(n):
+            cs[r + 1, x] = cs[r, x] + V[r, x]
     R = np.full((m, n), -1e9)
     for x in range(n):
         for i in range(m):
