@@ -181,3 +181,64 @@ def test_lower_outer_lip_keeps_the_layouts_thickness():
         assert out[lo, j, 1] - out[li, j, 1] >= layout[lo, j, 1] - layout[li, j, 1] - 1e-9
     # Not the blob's bottom (which is only a few pixels below the crease).
     assert out[lo, 1, 1] > crease + 6
+
+
+def test_closed_columns_is_opencvs_vertical_closing_and_median_level_numpys():
+    from facepuppet.capture.outlines import _closed_columns, _median_level
+
+    rng = np.random.default_rng(6)
+    for _ in range(100):
+        h, w = rng.integers(3, 30, 2)
+        value = rng.integers(0, 256, (h, w)).astype(np.uint8)
+        ref = cv2.morphologyEx(value, cv2.MORPH_CLOSE, np.ones((3, 1), np.uint8))
+        x0, y0 = rng.integers(0, w), rng.integers(0, h)
+        x1, y1 = rng.integers(x0 + 1, w + 1), rng.integers(y0 + 1, h + 1)
+        assert np.array_equal(_closed_columns(value, x0, x1, y0, y1), ref[y0:y1, x0:x1])
+        block = rng.integers(0, 256, rng.integers(1, 9, 2)).astype(float)
+        assert _median_level(block) == np.median(block)
+
+
+def _brow_behind_glasses(px, brow_top, ends):
+    """Eq. 1's intensity and the HSV value of a crop with a faint brow band (its top row per column
+    ``brow_top``, 0.12 face units thick, columns ``ends``, 15 % darker than the forehead) and a glasses' rim
+    one pixel thick 9 pixels below the band's top, dark in the value and bright in Eq. 1's intensity (the
+    brow is not: a blond brow on pale skin)."""
+    h, w = int(2.8 * px), int(2.6 * px)
+    value = np.full((h, w), 220, np.uint8)
+    raw = np.zeros((h, w), np.float32)
+    thick = int(round(0.12 * px))
+    for x in range(w):
+        top = brow_top[x]
+        if ends[0] <= x < ends[1]:
+            value[top:top + thick, x] = 187
+        value[top + 9, x] = 60
+        raw[top + 8:top + 10, x] = 1.0
+    return raw, value
+
+
+def test_brow_curve_on_a_faint_brow_above_a_glasses_rim_and_out_to_its_ends():
+    """A faint brow band with a glasses' rim below it that holds the blob: the brow curve goes onto the band's
+    upper edge (``_BROW_DEPTH`` below it), not onto the rim; a band wider than the layout's brow (a turned head's
+    near side) stretches the curve's ends out to the band's; a band no wider leaves the layout's ends."""
+    from facepuppet.capture.curves import CURVE_NAMES, bezier_points
+    from facepuppet.capture.outlines import _BROW_DEPTH, outline_features
+
+    layout, boxes, params, (h, w), px = _scene()
+    c = CURVE_NAMES.index("brow_left")
+    lo, hi = layout[c, 0, 0], layout[c, 3, 0]
+    # The band follows the layout's brow 3 pixels higher (level beyond its ends).
+    pts = bezier_points(layout[c], 64)
+    brow_top = np.round(np.interp(np.arange(w) + 0.5, pts[:, 0], pts[:, 1])).astype(int) - 3
+    for extra in (0, 8):
+        ends = (int(round(lo)) - extra, int(round(hi)) + extra)
+        raw, value = _brow_behind_glasses(px, brow_top, ends)
+        C = np.zeros((h, w), np.float32)
+        out = outline_features(C, raw, value, layout, np.zeros(2), boxes, params, px)
+        # Without the brow band the rim holds the curve (the blob's top): the case the edge search mends.
+        plain = outline_features(C, raw, np.full((h, w), 220, np.uint8), layout, np.zeros(2), boxes, params, px)
+        for curve, depth in ((plain, 8.0), (out, _BROW_DEPTH * px)):
+            p = bezier_points(curve[c], 32)
+            off = p[:, 1] - brow_top[np.clip(p[:, 0].astype(int), 0, w - 1)]
+            assert abs(np.median(off) - depth) < 1.0, (extra, np.median(off), depth)
+        assert out[c, 0, 0] == pytest.approx(ends[0], abs=2.0), (extra, out[c, 0, 0], ends)
+        assert out[c, 3, 0] == pytest.approx(ends[1], abs=2.0), (extra, out[c, 3, 0], ends)

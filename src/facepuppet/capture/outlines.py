@@ -8,7 +8,10 @@ column profile:
   its top (the landmark convention); the upper lid never crosses the lower one;
 * brows: on the raw Eq. 1 intensity normalised inside the rectangle (forehead skin at the median), the brow
   curve onto its upper edge, at most half the brow's thickness down (the upper edge is sharp, the lower
-  may merge with the lid's shadow);
+  may merge with the lid's shadow); then the brow's upper edge is followed on the HSV value, from that
+  curve up (a glasses' rim or the lid's shadow may hold the blob's top, a faint brow lies above them), and
+  the curve's ends reach out as far as the edge goes (a brow on the near side of a turned head is wider
+  than the layout's);
 * mouth: corners and outer lips from the blob's outline, inner lips from the mouth opening inside it (dark
   pixels or pixels the blob leaves out between its top and bottom, as teeth), or the lip crease when closed.
 
@@ -56,6 +59,19 @@ _BROW_DEPTH = 0.05
 _BROW_TILT = 0.5
 _BROW_TILT_FLOOR = 0.1
 _BROW_THICK = 0.25
+
+#: The brow's upper edge on the HSV value (:func:`_brow_edges`), face units unless said: rows averaged above
+#: and below the edge, how far above the blob's curve it is searched, columns searched beyond the rectangle,
+#: the least contrast (fraction of the forehead's value) of the edge's middle for it to count, the fraction of
+#: that contrast the edge keeps along the brow's extent, the farthest the curve ends reach beyond the layout's,
+#: and the farthest the curve moves up or down.
+_EDGE_ROWS = 0.08
+_EDGE_UP = 0.2
+_EDGE_MARGIN = 0.2
+_EDGE_FLOOR = 0.05
+_EDGE_KEEP = 0.4
+_BROW_REACH = 0.35
+_BROW_SHIFT = 0.2
 
 _K = 12                                                 # boundary samples per curve
 _B = bernstein(np.linspace(0.0, 1.0, _K))               # (K, 4)
@@ -255,6 +271,210 @@ def _brows(raw: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: np.ndarr
 
 
 @nb.njit(**_JIT)
+def _closed_columns(value: np.ndarray, x0: int, x1: int, y0: int, y1: int) -> np.ndarray:
+    """``value`` over rows y0..y1 and columns x0..x1 closed along the columns by three pixels (the largest of
+    each pixel and its neighbours above and below, then the smallest of those, as OpenCV's closing by a 3 x 1
+    element): dark lines one or two pixels thick, a glasses' rim, a wrinkle, take their surroundings' value;
+    thicker dark bands, brows, stay. Pixels outside the image take no part. Returns (y1 - y0, x1 - x0) float64.
+    """
+    h = value.shape[0]
+    n = x1 - x0
+    ga, gb = max(y0 - 1, 0), min(y1 + 1, h)
+    grown = np.empty((gb - ga, n))
+    for r in range(ga, gb):
+        g = grown[r - ga]
+        for x in range(n):
+            g[x] = value[r, x0 + x]
+        for q in (r - 1, r + 1):
+            if 0 <= q < h:
+                for x in range(n):
+                    g[x] = max(g[x], value[q, x0 + x])
+    out = np.empty((y1 - y0, n))
+    for y in range(y0, y1):
+        o = out[y - y0]
+        o[:] = grown[y - ga]
+        for q in (y - 1, y + 1):
+            if ga <= q < gb:
+                g = grown[q - ga]
+                for x in range(n):
+                    o[x] = min(o[x], g[x])
+    return out
+
+
+@nb.njit(**_JIT)
+def _median_level(block: np.ndarray) -> float:
+    """Median of a block of whole numbers in 0..255 (8-bit levels), by counting."""
+    counts = np.zeros(256, np.int64)
+    for v in block.ravel():
+        counts[min(max(int(v), 0), 255)] += 1
+    n = block.size
+    if n == 0:
+        return 0.0
+    lo_rank, hi_rank = (n - 1) // 2, n // 2
+    seen = 0
+    lo_v = -1
+    for level in range(256):
+        seen += counts[level]
+        if lo_v < 0 and seen > lo_rank:
+            lo_v = level
+        if seen > hi_rank:
+            return 0.5 * (lo_v + level)
+    return float(lo_v)
+
+
+@nb.njit(**_JIT)
+def _upper_edge(value: np.ndarray, prior: np.ndarray, x0: int, x1: int, y0: int, y1: int, box: np.ndarray,
+                unit: float):
+    """The brow's upper edge in columns x0..x1: bright forehead above, darker brow below, on the closed value
+    (:func:`_closed_columns`), searched in rows y0..y1 from ``_EDGE_UP`` face units above the curve ``prior``
+    (its row per column) down to it, as one path that moves at most a row per column (dynamic programming).
+
+    Returns (rows, contrast): the edge's row per column (the pixel boundary between the forehead and the brow,
+    to a fraction of a row) and its contrast there, the mean value of ``_EDGE_ROWS`` face units above minus
+    that below over the forehead's value (the median over the rectangle ``box``, within the columns searched).
+    """
+    h = value.shape[0]
+    n = x1 - x0
+    s = max(int(round(_EDGE_ROWS * unit)), 2)
+    ya, yb = max(y0 - s, 0), min(y1 + s, h)
+    V = _closed_columns(value, x0, x1, ya, yb)
+    bx0, bx1 = min(max(box[0], x0), x1), min(max(box[2], x0), x1)
+    forehead = _median_level(V[y0 - ya:y1 - ya, bx0 - x0:bx1 - x0].copy()) if bx1 > bx0 else 0.0
+    # Only the rows some column may search.
+    ra = max(y0, int(np.ceil(prior.min() - _EDGE_UP * unit)))
+    m = min(y1, int(np.floor(prior.max())) + 1) - ra
+    if m <= 0:
+        return prior.copy(), np.zeros(n)
+    # Column sums from the top, for the means above and below each row.
+    cs = np.empty((yb - ya + 1, n))
+    cs[0] = 0.0
+    for r in range(yb - ya):
+        for x in range(n):
+            cs[r + 1, x] = cs[r, x] + V[r, x]
+    R = np.full((m, n), -1e9)
+    for x in range(n):
+        for i in range(m):
+            y = ra + i
+            if not (prior[x] - _EDGE_UP * unit <= y <= prior[x]):
+                continue
+            a, b = max(y - s, ya), min(y + s, yb)
+            if a >= y or b <= y:
+                continue
+            above = (cs[y - ya, x] - cs[a - ya, x]) / (y - a)
+            below = (cs[b - ya, x] - cs[y - ya, x]) / (b - y)
+            R[i, x] = (above - below) / max(forehead, 1.0)
+    acc = R[:, 0].copy()
+    back = np.zeros((m, n), np.int64)
+    nxt = np.empty(m)
+    for x in range(1, n):
+        for i in range(m):
+            best, arg = acc[i], i
+            if i > 0 and acc[i - 1] > best:
+                best, arg = acc[i - 1], i - 1
+            if i < m - 1 and acc[i + 1] > best:
+                best, arg = acc[i + 1], i + 1
+            nxt[i] = best + R[i, x]
+            back[i, x] = arg
+        acc[:] = nxt
+    rows = np.empty(n)
+    contrast = np.empty(n)
+    i = int(np.argmax(acc))
+    for x in range(n - 1, -1, -1):
+        # To a fraction of a row: the parabola through the contrast of the row and its neighbours.
+        frac = 0.0
+        if 0 < i < m - 1 and R[i - 1, x] > -1e8 and R[i + 1, x] > -1e8:
+            curv = R[i - 1, x] - 2.0 * R[i, x] + R[i + 1, x]
+            if curv < 0.0:
+                frac = min(max(0.5 * (R[i - 1, x] - R[i + 1, x]) / curv, -0.5), 0.5)
+        rows[x] = ra + i + frac
+        contrast[x] = R[i, x]
+        i = back[i, x]
+    return rows, contrast
+
+
+@nb.njit(**_JIT)
+def _brow_edges(value: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: np.ndarray, unit: float) -> None:
+    """Each brow curve onto the brow's upper edge on the HSV value, its ends out to the edge's extent.
+
+    The edge is searched from the blob's curve (:func:`_brows`) up: what held the blob's top may be a
+    glasses' rim or the lid's shadow under a faint brow, never something above the brow. Where the edge's
+    middle is too faint (no brow seen), the blob's curve stays. The brow's extent is the run of columns around
+    the middle where the edge keeps ``_EDGE_KEEP`` of the middle's contrast, its ends read off the run's
+    moments; the layout's curve is stretched out to them (never shrunk: a brow's tail may fade), placed
+    ``_BROW_DEPTH`` below the edge and tilted onto it as in :func:`_brows`.
+    """
+    h, w = value.shape
+    for side in range(2):
+        x0, y0, x1, y1 = boxes[2 + side]
+        if x1 <= x0 or y1 <= y0:
+            continue
+        c = _BROW[side]
+        margin = int(round(_EDGE_MARGIN * unit))
+        xa, xb = max(x0 - margin, 0), min(x1 + margin, w)
+        n = xb - xa
+        if n < 6:
+            continue
+        # The blob's curve, row per column (level beyond its ends).
+        px = _along(out[c], 0)
+        py = _along(out[c], 1)
+        order = np.argsort(px)
+        cols = np.arange(xa, xb) + 0.5
+        prior = np.interp(cols, px[order], py[order])
+        rows, contrast = _upper_edge(value, prior, xa, xb, y0, y1, boxes[2 + side], unit)
+        # The contrast averaged over a few columns (the extent's noise).
+        sm = np.empty(n)
+        for i in range(n):
+            sm[i] = contrast[max(i - 2, 0):min(i + 3, n)].mean()
+        contrast = sm
+        mid = int(np.argmin(np.abs(cols - 0.25 * out[c, :, 0].sum())))
+        k = max(n // 6, 1)
+        middle = _median(contrast[max(mid - k, 0):min(mid + k + 1, n)].copy())
+        if middle <= _EDGE_FLOOR:
+            continue
+        level = _EDGE_KEEP * middle
+        # The run of columns around the middle where the edge holds (gaps of one column bridged).
+        i0 = mid
+        while i0 > 0 and (contrast[i0 - 1] > level or (i0 > 1 and contrast[i0 - 2] > level)):
+            i0 -= 1
+        i1 = mid
+        while i1 < n - 1 and (contrast[i1 + 1] > level or (i1 < n - 2 and contrast[i1 + 2] > level)):
+            i1 += 1
+        # The run's ends from its moments (an even band of length L has mean ± sqrt(3) sd at its ends), each
+        # column weighted by its contrast over the level, up to the middle's: steadier than the run's ends.
+        sw = sx = sxx = 0.0
+        for i in range(i0, i1 + 1):
+            wgt = min(max(contrast[i], level), middle) - level
+            sw += wgt
+            sx += wgt * cols[i]
+            sxx += wgt * cols[i] * cols[i]
+        if sw <= 0.0:
+            continue
+        mean = sx / sw
+        sd = np.sqrt(max(sxx / sw - mean * mean, 0.0))
+        e0, e1 = mean - np.sqrt(3.0) * sd, mean + np.sqrt(3.0) * sd
+        lo = min(layout[c, 0, 0], layout[c, 3, 0])
+        hi = max(layout[c, 0, 0], layout[c, 3, 0])
+        a0 = lo - min(max(lo - e0, 0.0), _BROW_REACH * unit)
+        a1 = hi + min(max(e1 - hi, 0.0), _BROW_REACH * unit)
+        curve = layout[c].copy()
+        for j in range(4):
+            curve[j, 0] = a0 + (layout[c, j, 0] - lo) * (a1 - a0) / max(hi - lo, 1e-6)
+        xs = _along(curve, 0)
+        inside = (xs >= cols[i0]) & (xs <= cols[i1])
+        if inside.sum() < 4:
+            continue
+        r = np.interp(xs, cols, rows + _BROW_DEPTH * unit) - _along(curve, 1)
+        b = _line_fit(xs[inside], r[inside])[1]
+        b = min(max(b - min(max(b, -_BROW_TILT_FLOOR), _BROW_TILT_FLOOR), -_BROW_TILT), _BROW_TILT)
+        xm = xs.mean()
+        a = _median((r - b * (xs - xm))[inside])
+        a = min(max(a, -_BROW_SHIFT * unit), _BROW_SHIFT * unit)
+        for j in range(4):
+            curve[j, 1] += a + b * (curve[j, 0] - xm)
+        out[c] = curve
+
+
+@nb.njit(**_JIT)
 def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.ndarray, value: np.ndarray,
              skin: float, unit: float):
     """Top and bottom of the mouth opening per column of the mouth rectangle (the lip crease if closed).
@@ -410,6 +630,7 @@ def outline_features(C: np.ndarray, raw: np.ndarray, value: np.ndarray, layout: 
     out = layout.copy()
     _eyes(C, layout, out, boxes, blob_params[0], unit)
     _brows(raw, layout, out, boxes, blob_params[1], unit)
+    _brow_edges(value, layout, out, boxes, unit)
     _mouth(C, value, layout, mouth_offset, out, boxes, blob_params[2], unit, mouth_reach)
     return out
 
