@@ -73,6 +73,26 @@ def test_feature_intensity_is_eq1_then_contrast():
     assert np.allclose(C, contrast(ref, low + 0.15 * (feat - low), low + 0.75 * (feat - low)), atol=1e-4)
 
 
+def test_contrast_is_not_scaled_to_a_lone_speck():
+    """Eq. 1 with w = (1, 0, 0, 0) reads I = (V - G) / V: skin (200, 150, 120) at 0.25, a faint feature
+    (100, 60, 50) at 0.40 over a 6 x 6 patch, and one pure red speck at 1.0. Scaled to the speck, C would
+    leave the feature at about 0.02; the feature level is capped at twice the brightest 3 x 3 mean's height
+    above the skin (0.25 + 2 * 0.15 = 0.55), where C keeps the feature visible."""
+    crop = np.zeros((20, 30, 3), np.uint8)
+    crop[:] = (200, 150, 120)
+    crop[7:13, 8:14] = (100, 60, 50)
+    crop[3, 25] = (255, 0, 0)
+    table = lip_hue_table(LipHue())
+    skin = np.array([[0, 14, 30, 20]], dtype=np.int64)
+    feats = np.array([[0, 0, 30, 14]], dtype=np.int64)
+    raw, C, _ = feature_intensity(crop, np.array([1.0, 0.0, 0.0, 0.0]), table, 0.12, skin, feats)
+    np.testing.assert_allclose([raw[0, 0], raw[10, 10], raw[3, 25]], [0.25, 0.4, 1.0], atol=1e-6)
+    low, feat = 0.25, 0.55
+    t = (0.4 - (low + 0.15 * (feat - low))) / (0.6 * (feat - low))
+    np.testing.assert_allclose(C[10, 10], t * t * (3 - 2 * t), atol=1e-5)
+    assert C[10, 10] > 0.5 and C[0, 0] == 0.0 and C[3, 25] == 1.0
+
+
 def test_eye_centres_find_two_bright_spots():
     C = np.zeros((60, 100), np.float32)
     cv2.circle(C, (30, 25), 4, 1.0, -1)

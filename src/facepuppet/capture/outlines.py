@@ -73,6 +73,12 @@ _EDGE_KEEP = 0.4
 _BROW_REACH = 0.35
 _BROW_SHIFT = 0.2
 
+#: The contrast C's feature level is at most this many times the brightest 3 x 3 mean's height above the skin
+#: level: a brighter pixel stands alone, a speck of noise (on the shared clips the brightest pixel's height is
+#: 1.2-1.6 times the 3 x 3 mean's, so this never binds there; a light stretched to undo a colour cast turns a
+#: camera's block noise into specks 3 times as high, which squashed C below the eye search's floor).
+_SPECK = 2.0
+
 _K = 12                                                 # boundary samples per curve
 _B = bernstein(np.linspace(0.0, 1.0, _K))               # (K, 4)
 _MID = _B[:, 1] + _B[:, 2]                              # how much a common shift of the middle points moves
@@ -167,6 +173,25 @@ def _lash(C: np.ndarray, mask: np.ndarray, cols: np.ndarray, top: np.ndarray, un
             runs[n] = run
             n += 1
     return _median(runs[:n]) if n >= 3 else 0.0
+
+
+@nb.njit(**_JIT)
+def _top_of_boxes(img: np.ndarray, boxes: np.ndarray, floor: float):
+    """The brightest pixel of ``img`` in the rectangles, and the brightest 3 x 3 mean centred in them (each
+    at least ``floor``)."""
+    h, w = img.shape
+    top = peak = floor
+    for b in range(len(boxes)):
+        for y in range(max(boxes[b, 1], 0), min(boxes[b, 3], h)):
+            for x in range(max(boxes[b, 0], 0), min(boxes[b, 2], w)):
+                top = max(top, img[y, x])
+                if 0 < y < h - 1 and 0 < x < w - 1:
+                    s = 0.0
+                    for dy in range(-1, 2):
+                        for dx in range(-1, 2):
+                            s += img[y + dy, x + dx]
+                    peak = max(peak, s / 9.0)
+    return top, peak
 
 
 @nb.njit(**_JIT)
@@ -749,7 +774,8 @@ def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarr
 
     I = w1 (V - G) / V + (w3 - w2) V + w2 + w4 G(H) with 8-bit V and G as in
     :func:`~facepuppet.capture.color.transform`; then C = smoothstep between the skin level (median of I
-    over ``skin_boxes``) + 15 % and + 75 % of the way to the brightest I in ``feature_boxes``.
+    over ``skin_boxes``) + 15 % and + 75 % of the way to the brightest I in ``feature_boxes``
+    (a lone bright pixel is taken down to :data:`_SPECK` times the brightest 3 x 3 mean's level).
 
     Parameters
     ----------
@@ -789,12 +815,8 @@ def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarr
             raw[y, x] = i
             value[y, x] = v
     low = _median_of_boxes(raw, skin_boxes)
-    feat = low
-    for k in range(len(feature_boxes)):
-        x0, y0, x1, y1 = feature_boxes[k]
-        for y in range(y0, y1):
-            for x in range(x0, x1):
-                feat = max(feat, raw[y, x])
+    top, peak = _top_of_boxes(raw, feature_boxes, low)
+    feat = low + min(top - low, _SPECK * (peak - low))
     lo = low + 0.15 * (feat - low)
     inv = 1.0 / max(0.6 * (feat - low), 1e-6)
     C = np.empty((h, w), np.float32)
