@@ -10,26 +10,15 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
+from animated_scenes import head_scene, make_character, morphed
 from facepuppet.export.gltf_animation import write_animated_glb
 from facepuppet.io.character import Character
 from three_loader import three_loader  # noqa: F401  (fixture)
 
 
-def make_character(rng, v=30, m=4) -> Character:
-    base = rng.normal(size=(v, 3)).astype(np.float32).astype(np.float64)
-    targets = (base[None] + rng.normal(size=(m, v, 3)) * 0.05).astype(np.float32).astype(np.float64)
-    faces = np.array([[i, i + 1, i + 2] for i in range(v - 2)])
-    return Character(base, targets, tuple(f"key{i}" for i in range(m)), faces, "toy")
-
-
 def key_time(frame: int, fps: float) -> float:
     """The time of a frame's key as stored (float32), so three.js lands on the key itself."""
     return float(np.float32(frame / fps))
-
-
-def morphed(c: Character, w: np.ndarray) -> np.ndarray:
-    """Eq. 14: T_B + Σ_i w_i (T_i - T_B), (V, 3)."""
-    return c.neutral + np.tensordot(w, c.targets - c.neutral[None], axes=1)
 
 
 def test_weights_play_in_threejs(tmp_path, rng, three_loader):  # noqa: F811
@@ -59,14 +48,9 @@ def test_weights_play_in_threejs(tmp_path, rng, three_loader):  # noqa: F811
 
 
 def test_head_rotation_plays_in_threejs(tmp_path, rng, three_loader):  # noqa: F811
-    c = make_character(rng, m=3)
-    f, fps = 12, 24.0
-    rot = Rotation.from_euler("YXZ", rng.uniform(-0.5, 0.5, size=(f, 3)))
-    weights = rng.uniform(0, 1, size=(f, 3))
-    weights[4] = np.nan  # a lost frame: neutral
-    pivot = np.array([0.5, -1.0, 0.25])
-    path = tmp_path / "head.glb"
-    write_animated_glb(path, c, weights, fps, head_rotation=rot.as_matrix(), pivot=pivot)
+    s = head_scene(tmp_path, rng)  # frame 4 lost: neutral
+    c, weights, rot, pivot, fps, path = s.character, s.weights, s.rotation, s.pivot, s.fps, s.path
+    f = len(weights)
     mid = (key_time(8, fps) + key_time(9, fps)) / 2
     out = three_loader.play(path, [key_time(4, fps), key_time(6, fps), mid])
 
