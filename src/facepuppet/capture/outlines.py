@@ -254,6 +254,14 @@ def _line_fit(x: np.ndarray, y: np.ndarray):
 
 
 @nb.njit(**_JIT)
+def _brow_tilt(b: float) -> float:
+    """The tilt a brow curve takes from a measured edge slope ``b`` against the layout's: small tilts are the
+    edge's noise (the layout's slant holds), so only the excess over ``_BROW_TILT_FLOOR`` counts, at most
+    ``_BROW_TILT``."""
+    return min(max(b - min(max(b, -_BROW_TILT_FLOOR), _BROW_TILT_FLOOR), -_BROW_TILT), _BROW_TILT)
+
+
+@nb.njit(**_JIT)
 def _brows(raw: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: np.ndarray, params: np.ndarray,
            unit: float) -> None:
     for side in range(2):
@@ -287,8 +295,7 @@ def _brows(raw: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: np.ndarr
         thick = _median((bottom - top)[cols])
         if inside.sum() >= 4 and thick < _BROW_THICK * unit:
             b = _line_fit(xs[inside], r[inside])[1]
-            # Small tilts are the edge's noise (the layout's slant holds): only the excess over a floor counts.
-            b = min(max(b - min(max(b, -_BROW_TILT_FLOOR), _BROW_TILT_FLOOR), -_BROW_TILT), _BROW_TILT)
+            b = _brow_tilt(b)
         a = _median(r - b * (xs - xm))
         a = min(max(a, -0.15 * unit), 0.15 * unit)
         for j in range(4):
@@ -490,7 +497,7 @@ def _brow_edges(value: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: n
             continue
         r = np.interp(xs, cols, rows + _BROW_DEPTH * unit) - _along(curve, 1)
         b = _line_fit(xs[inside], r[inside])[1]
-        b = min(max(b - min(max(b, -_BROW_TILT_FLOOR), _BROW_TILT_FLOOR), -_BROW_TILT), _BROW_TILT)
+        b = _brow_tilt(b)
         xm = xs.mean()
         a = _median((r - b * (xs - xm))[inside])
         a = min(max(a, -_BROW_SHIFT * unit), _BROW_SHIFT * unit)
