@@ -20,6 +20,8 @@ def register(subparsers) -> None:
     p.add_argument("--tracker", choices=tuple(TRACKERS), default=DEFAULT_TRACKER,
                    help="what tracks the performer: " + "; ".join(f"{k}: {v}" for k, v in TRACKERS.items())
                         + f" (default {DEFAULT_TRACKER})")
+    p.add_argument("--model", metavar="TASK", default=None,
+                   help="MediaPipe face_landmarker.task of --tracker mediapipe (default $FACEPUPPET_FACE_LANDMARKER)")
     p.add_argument("--no-preview", action="store_true", help="skip the side-by-side preview video")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     p.set_defaults(run=run)
@@ -30,8 +32,10 @@ def run(args: argparse.Namespace) -> int:
 
     if args.seconds < 4.6:
         raise ValueError(f"--seconds must be at least 4.6 (each key expression gets its turn), got {args.seconds}")
+    if args.model is not None and args.tracker != "mediapipe":
+        raise ValueError(f"--model is for --tracker mediapipe, not --tracker {args.tracker}")
     config = DemoConfig(seconds=args.seconds, seed=args.seed, tracker=args.tracker, preview=not args.no_preview,
-                        progress=False if args.no_progress else None)
+                        progress=False if args.no_progress else None, model=args.model)
     print(f"facepuppet demo: tracking with {TRACKERS[config.tracker]}")
     if config.tracker == "truth":
         print("  (the colour tracker is not yet accurate enough on the digital performer; "
