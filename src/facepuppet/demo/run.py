@@ -45,18 +45,28 @@ Measured again on 2026-11-30 (``benchmarks/eval_demo_color.py`` and scripts on t
   bar asks the colour tracker to beat it. Its points wander less from the true ones than the colour
   tracker's (RMS, head coordinates, constant offset removed; brows 0.8 against 1.1 mm, outer lips 1.1
   against 2.0 mm, where the expressions move them 1.3 and 2.2 mm), except on the lids (0.7 against 0.5 mm);
-- without head motion the colour tracker gives 0.71 (seed 0, against 0.85); with the true head pose 0.83 on
-  average: the pose is one part of the error, not most of it;
-- the calibration video mapped back onto itself gives 0.38 with the colour tracker, 0.00 with the true
-  curves: between the neutral face and a held key, the tracked points do not move along the line to the key's
-  example, so onsets read as other keys (brows lowering read as mouthRollLower, the inner brows rising as
-  eyeWide at 0.8, with the true pose too);
+- the head pose is badly conditioned at this scale (1 cm is about 10 px): the whole yaw range of the
+  performance (about 11 degrees each way) moves the nose base under 2 px against the eye corners, and the
+  colour tracker's nose points wander 1.9-2.3 px (MediaPipe's 0.8-1.1, its eye corners 0.75 against 1.6).
+  With every curve true, 0.5 px of white noise on the seven points the pose is solved from already gives
+  0.32, 1 px 0.47 (slowly varying noise: 0.39 and 0.56); with every curve true but the colour tracker's
+  nostrils, 0.72; with the true pose and the colour tracker's curves, 0.83. Profiling the six directions in
+  which a pose error moves the back-projected points out of the mapping brings the 1 px case to 0.21 and
+  MediaPipe to 0.50, but the colour tracker stays at 1.0, as it does when the pose is solved from all 48
+  points on the performer's own expression model (MediaPipe 0.53): its lips and brows must improve too;
+- without head motion the colour tracker gives 0.71 (seed 0, against 0.85);
+- the calibration video mapped back onto itself (weights not smoothed) gives 0.38 with the colour tracker,
+  0.00 with the true curves: between the neutral face and a held key, the tracked points do not move along
+  the line to the key's example, so onsets read as other keys (brows lowering read as mouthRollLower, the
+  inner brows rising as eyeWide at 0.8, with the true pose too);
 - tried and worse or no better: mapping each region (brows, eyes, mouth) on its own points (1.4-1.8);
   profiling a rigid motion of all points out of the mapping (colour 0.97; MediaPipe 0.52, but on the real
   clips it lowered the colour tracker's correlations, jaw of clip a 0.86 to 0.62); a ridge regression of the
   curves from the whole face crop learnt on the calibration frames (curves 1.4 to 1.1 px, error 0.92 to 0.91);
   a calibration video with head motion (1.09); low-passing the head rotation (1.25); the true per-coordinate
-  noise as the mapper's point scale (0.97); rendering at 480 px (0.87: the curve errors grow with the face).
+  noise as the mapper's point scale (0.97); rendering at 480 px (seed 0: 0.87 against 0.85, the curve errors
+  grow with the face); ridge regressions of the brows or lips from patches learnt on the calibration
+  frames (their curves 1.8 to 1.2 px, the error unchanged while the pose is off).
 
 Until the colour tracker is accurate on the digital performer the demo uses the true curves and says so in
 what it prints.
