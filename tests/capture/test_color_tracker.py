@@ -231,3 +231,31 @@ def test_a_small_face_found_again_keeps_its_size(assets, tmp_path):
         spans.append(np.linalg.norm(g.curves[_IDX["eye_left_upper"], 3] - g.curves[_IDX["eye_right_upper"], 3]))
     change = np.abs(np.diff(np.log(spans)))
     assert change.max() < np.log(1.25), (int(change.argmax()), np.round(spans, 1))
+
+
+def test_head_turns_are_not_reported_the_wrong_way_round():
+    """The colour tracker's stable landmarks are placed by its face frame (a similarity): they show the head's
+    roll but not a turn. On the digital performer turning and tilting its head, the reported yaw and pitch
+    stay at zero (a free solve turned the head towards the camera, against the true turn: correlation -0.93)
+    and the roll follows the true one."""
+    from facepuppet.capture.pose import HeadPose, default_camera
+    from facepuppet.demo.performer import head_pose, render_performer
+    from facepuppet.demo.script import KEY_NAMES
+
+    size = (320, 320)
+    phase = np.linspace(0.0, 2.0 * np.pi, 40)                # 1.3 s at 30 frames/s
+    motion = np.zeros((len(phase), 6))
+    motion[:, 0] = np.radians(10.0) * np.sin(phase)          # yaw
+    motion[:, 2] = np.radians(8.0) * np.sin(phase + 1.0)     # roll
+    tracker = ColorTracker()
+    K = default_camera(size)
+    angles, true = [], []
+    for i, m in enumerate(motion):
+        f = tracker.track(render_performer(np.zeros(len(KEY_NAMES)), m, size), 33 * i)
+        assert f.valid
+        angles.append(HeadPose(f.rotation, f.translation, K).angles())
+        true.append(head_pose(m, size).angles())
+    angles, true = np.degrees(angles), np.degrees(true)
+    assert np.abs(angles[:, :2]).max() < 1e-6
+    assert np.corrcoef(angles[:, 2], true[:, 2])[0, 1] > 0.9
+    assert np.abs(angles[:, 2] - true[:, 2]).max() < 3.0

@@ -77,6 +77,35 @@ def test_pose_from_stable_features_only_and_previous_guess(rng):
     assert second and angle_between(second.rotation, R2) < 0.5
 
 
+@pytest.mark.parametrize("roll", [0.0, 12.0, -20.0])
+def test_upright_pose_keeps_roll_and_fits_translation(roll):
+    """out_of_plane=False: yaw and pitch held at zero, roll and position solved; exact for an upright head
+    anywhere in the image (the translation's linear least squares has an exact solution)."""
+    xyz = np.array([GENERIC_FACE[n] for n in STABLE_FEATURES])
+    R = rotation(roll=roll)
+    for t in (np.array([0.0, 0.0, 50.0]), np.array([9.0, -6.0, 45.0])):
+        pose = estimate_pose(project(xyz, R, t), SIZE, out_of_plane=False)
+        assert pose and np.allclose(pose.rotation, R, atol=1e-6) and np.allclose(pose.translation, t, atol=1e-4)
+        assert np.allclose(pose.angles(), np.radians([0.0, 0.0, roll]), atol=1e-6)
+
+
+def test_upright_pose_does_not_turn_a_layout_placed_off_centre_towards_the_camera():
+    """Landmarks placed by an in-plane similarity (the frontal layout moved across the image, as the colour
+    tracker places them) carry no turn: a free solve turns the head towards the camera by about the angle of
+    the ray to it, the upright solve keeps it facing along the optical axis."""
+    xyz = np.array([GENERIC_FACE[n] for n in STABLE_FEATURES])
+    layout = project(xyz, FRONTAL_ROTATION, np.array([0.0, 0.0, 50.0]))
+    shift = np.array([60.0, -40.0])                         # the same picture, moved right and up
+    free = estimate_pose(layout + shift, SIZE)
+    upright = estimate_pose(layout + shift, SIZE, out_of_plane=False)
+    yaw_free, pitch_free, _ = np.degrees(free.angles())
+    ray_x, ray_y = np.degrees(np.arctan(shift / default_camera(SIZE)[0, 0]))
+    assert abs(yaw_free) > 0.5 * abs(ray_x) and abs(pitch_free) > 0.5 * abs(ray_y)
+    yaw, pitch, roll = np.degrees(upright.angles())
+    assert yaw == pytest.approx(0.0, abs=1e-9) and pitch == pytest.approx(0.0, abs=1e-9) and abs(roll) < 1.0
+    assert upright.reprojection_error < 1.0
+
+
 def test_up_vector_in_the_image_follows_roll():
     t = np.array([0.0, 0.0, 50.0])
     assert np.allclose(HeadPose(rotation(), t, default_camera(SIZE)).up_vector_image(), [0, -1], atol=1e-9)

@@ -508,10 +508,12 @@ class ColorTracker:
         return smooth @ np.array([[ax, ay], [-ay, ax]]) + np.array([ox, oy])
 
     def _features(self, curves: np.ndarray, size: tuple[int, int]) -> FrameFeatures:
+        # The stable landmarks are the layout's, placed by the face frame (a similarity): they show the head's
+        # roll, size and place but not a turn, so the pose is solved upright (estimate_pose, out_of_plane).
         uv = curves[_POSE_POINTS]
-        pose = estimate_pose(uv, size, previous=self._pose)
+        pose = estimate_pose(uv, size, previous=self._pose, out_of_plane=False)
         if not pose:
-            pose = estimate_pose(uv, size)
+            pose = estimate_pose(uv, size, out_of_plane=False)
         self._pose = pose if pose else None
         if pose:
             points = points_in_head(curves, pose)

@@ -313,7 +313,7 @@ def _as_correspondences(image_points, names):
 
 def estimate_pose(image_points: Mapping[str, np.ndarray] | np.ndarray, frame_size: tuple[int, int] | np.ndarray,
                   *, focal: float | None = None, previous: HeadPose | FailedPose | None = None,
-                  names: tuple[str, ...] = STABLE_FEATURES) -> HeadPose | FailedPose:
+                  names: tuple[str, ...] = STABLE_FEATURES, out_of_plane: bool = True) -> HeadPose | FailedPose:
     """Head pose from image landmarks and the generic face (Perspective-n-Point, iterative).
 
     Parameters
@@ -331,6 +331,14 @@ def estimate_pose(image_points: Mapping[str, np.ndarray] | np.ndarray, frame_siz
         suggests.
     names : tuple of str
         Landmark names of an array ``image_points``.
+    out_of_plane : bool
+        Solve the head's yaw and pitch (the default). False holds them at zero, the head facing along the
+        camera's optical axis, and solves only its roll and position: for landmarks placed
+        by an in-plane similarity of a fixed layout, which carry no sign of a turn. Solved freely, such points
+        turn the head towards the camera wherever it sits in the image, and since a head turning about the
+        neck also moves across the image, that rotation runs against the real turn (the colour tracker's yaw
+        correlated at -0.93 with the digital performer's true yaw and at -0.89 with MediaPipe's on a real
+        clip before it used this).
 
     Returns
     -------
@@ -354,6 +362,8 @@ def estimate_pose(image_points: Mapping[str, np.ndarray] | np.ndarray, frame_siz
         R, t, ok = _refine_pose(xyz, uv, K, np.asarray(previous.rotation, dtype=float),
                                 np.asarray(previous.translation, dtype=float))
         if ok:
+            if not out_of_plane:
+                R, t = _upright(K, xyz, uv)
             return _checked_pose(R, t, K, xyz, uv, names)
         rvec0 = cv2.Rodrigues(np.asarray(previous.rotation, dtype=float))[0]
         tvec0 = np.asarray(previous.translation, dtype=float).reshape(3, 1).copy()
@@ -374,7 +384,49 @@ def estimate_pose(image_points: Mapping[str, np.ndarray] | np.ndarray, frame_siz
         return FailedPose(f"head pose solver failed ({str(e).strip().splitlines()[-1]})")
     if not ok or not (np.isfinite(rvec).all() and np.isfinite(tvec).all()):
         return FailedPose("head pose solver did not converge")
-    return _checked_pose(cv2.Rodrigues(rvec)[0], tvec.reshape(3), K, xyz, uv, names)
+    R, t = cv2.Rodrigues(rvec)[0], tvec.reshape(3)
+    if not out_of_plane:
+        R, t = _upright(K, xyz, uv)
+    return _checked_pose(R, t, K, xyz, uv, names)
+
+
+def _upright(K: np.ndarray, xyz: np.ndarray, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The pose with no yaw or pitch, ``R = FRONTAL_ROTATION @ Rz(roll)``, that fits the points best.
+
+    With that R, ``R X = (c X_x − s X_y, −s X_x − c X_y, −X_z)`` (c, s the roll's cosine and sine), and each
+    point's projection ``u = f_x (R X + t)_x / (R X + t)_z + c_x`` (v alike), multiplied out, is linear in
+    (c, s, t): ``f_x (c X_x − s X_y + t_x) − (u − c_x) t_z = −(u − c_x) X_z`` and
+    ``f_y (−s X_x − c X_y + t_y) − (v − c_y) t_z = −(v − c_y) X_z``. The least-squares solution of those
+    2N equations gives a first roll ``atan2(s, c)`` and t (exact for points of an upright head); a few
+    Gauss-Newton steps on the reprojection error over (roll, t) then finish the fit.
+    """
+    fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
+    X, Y, Z = xyz[:, 0], xyz[:, 1], xyz[:, 2]
+    du, dv = uv[:, 0] - cx, uv[:, 1] - cy
+    n = len(xyz)
+    zero, one = np.zeros(n), np.ones(n)
+    A = np.vstack([np.column_stack([fx * X, -fx * Y, fx * one, zero, -du]),
+                   np.column_stack([-fy * Y, -fy * X, zero, fy * one, -dv])])
+    b = np.concatenate([-du * Z, -dv * Z])
+    c, s = np.linalg.lstsq(A, b, rcond=None)[0][:2]
+    roll = np.arctan2(s, c)
+    c, s = np.cos(roll), np.sin(roll)
+    rest = np.concatenate([-du * Z - fx * (c * X - s * Y), -dv * Z - fy * (-s * X - c * Y)])
+    t = np.linalg.lstsq(A[:, 2:], rest, rcond=None)[0]
+    for _ in range(5):
+        c, s = np.cos(roll), np.sin(roll)
+        P = np.column_stack([c * X - s * Y + t[0], -s * X - c * Y + t[1], t[2] - Z])   # R X + t
+        dP = np.column_stack([-s * X - c * Y, -c * X + s * Y, zero])                     # d(R X)/d roll
+        iz = 1.0 / P[:, 2]
+        r = np.concatenate([fx * P[:, 0] * iz - du, fy * P[:, 1] * iz - dv])
+        J = np.vstack([np.column_stack([fx * (dP[:, 0] * iz), fx * iz, zero, -fx * P[:, 0] * iz ** 2]),
+                       np.column_stack([fy * (dP[:, 1] * iz), zero, fy * iz, -fy * P[:, 1] * iz ** 2])])
+        step = np.linalg.lstsq(J, -r, rcond=None)[0]
+        roll, t = roll + step[0], t + step[1:]
+        if abs(step[0]) < 1e-10 and np.abs(step[1:]).max() < 1e-8 * max(abs(t[2]), 1.0):
+            break
+    c, s = np.cos(roll), np.sin(roll)
+    return FRONTAL_ROTATION @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]), t
 
 
 def _checked_pose(R: np.ndarray, t: np.ndarray, K: np.ndarray, xyz: np.ndarray, uv: np.ndarray,
