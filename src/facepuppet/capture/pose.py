@@ -357,13 +357,23 @@ def estimate_pose(image_points: Mapping[str, np.ndarray] | np.ndarray, frame_siz
     if len(uv) < 4:
         return FailedPose(f"head pose needs at least 4 finite landmarks, got {len(uv)}")
     K = _camera(float(frame_size[0]), float(frame_size[1]), None if focal is None else float(focal))
+    if not out_of_plane:
+        start = _upright_start(K, xyz, uv) if not previous else (
+            float(HeadPose(previous.rotation, previous.translation, K).angles()[2]),
+            np.asarray(previous.translation, dtype=float))
+        roll, t, ok = _refine_upright(xyz, uv, K, start[0], start[1].copy())
+        if not ok and previous:
+            roll, t, ok = _refine_upright(xyz, uv, K, *_upright_start(K, xyz, uv))
+        if not ok or not np.isfinite(t).all():
+            return FailedPose("upright head pose did not converge")
+        c, s = np.cos(roll), np.sin(roll)
+        R = FRONTAL_ROTATION @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        return _checked_pose(R, t, K, xyz, uv, names)
     if previous:
         # From last frame's pose a few Gauss-Newton steps on the same reprojection error converge.
         R, t, ok = _refine_pose(xyz, uv, K, np.asarray(previous.rotation, dtype=float),
                                 np.asarray(previous.translation, dtype=float))
         if ok:
-            if not out_of_plane:
-                R, t = _upright(K, xyz, uv)
             return _checked_pose(R, t, K, xyz, uv, names)
         rvec0 = cv2.Rodrigues(np.asarray(previous.rotation, dtype=float))[0]
         tvec0 = np.asarray(previous.translation, dtype=float).reshape(3, 1).copy()
@@ -384,21 +394,18 @@ def estimate_pose(image_points: Mapping[str, np.ndarray] | np.ndarray, frame_siz
         return FailedPose(f"head pose solver failed ({str(e).strip().splitlines()[-1]})")
     if not ok or not (np.isfinite(rvec).all() and np.isfinite(tvec).all()):
         return FailedPose("head pose solver did not converge")
-    R, t = cv2.Rodrigues(rvec)[0], tvec.reshape(3)
-    if not out_of_plane:
-        R, t = _upright(K, xyz, uv)
-    return _checked_pose(R, t, K, xyz, uv, names)
+    return _checked_pose(cv2.Rodrigues(rvec)[0], tvec.reshape(3), K, xyz, uv, names)
 
 
-def _upright(K: np.ndarray, xyz: np.ndarray, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The pose with no yaw or pitch, ``R = FRONTAL_ROTATION @ Rz(roll)``, that fits the points best.
+def _upright_start(K: np.ndarray, xyz: np.ndarray, uv: np.ndarray) -> tuple[float, np.ndarray]:
+    """A first upright pose, ``R = FRONTAL_ROTATION @ Rz(roll)`` (no yaw or pitch), as (roll, t).
 
     With that R, ``R X = (c X_x − s X_y, −s X_x − c X_y, −X_z)`` (c, s the roll's cosine and sine), and each
     point's projection ``u = f_x (R X + t)_x / (R X + t)_z + c_x`` (v alike), multiplied out, is linear in
     (c, s, t): ``f_x (c X_x − s X_y + t_x) − (u − c_x) t_z = −(u − c_x) X_z`` and
     ``f_y (−s X_x − c X_y + t_y) − (v − c_y) t_z = −(v − c_y) X_z``. The least-squares solution of those
-    2N equations gives a first roll ``atan2(s, c)`` and t (exact for points of an upright head); a few
-    Gauss-Newton steps on the reprojection error over (roll, t) then finish the fit.
+    2N equations gives the roll ``atan2(s, c)``, and t is solved again with the roll fixed; exact for the
+    points of an upright head, a start for :func:`_refine_upright` otherwise.
     """
     fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
     X, Y, Z = xyz[:, 0], xyz[:, 1], xyz[:, 2]
@@ -407,26 +414,54 @@ def _upright(K: np.ndarray, xyz: np.ndarray, uv: np.ndarray) -> tuple[np.ndarray
     zero, one = np.zeros(n), np.ones(n)
     A = np.vstack([np.column_stack([fx * X, -fx * Y, fx * one, zero, -du]),
                    np.column_stack([-fy * Y, -fy * X, zero, fy * one, -dv])])
-    b = np.concatenate([-du * Z, -dv * Z])
-    c, s = np.linalg.lstsq(A, b, rcond=None)[0][:2]
-    roll = np.arctan2(s, c)
+    c, s = np.linalg.lstsq(A, np.concatenate([-du * Z, -dv * Z]), rcond=None)[0][:2]
+    roll = float(np.arctan2(s, c))
     c, s = np.cos(roll), np.sin(roll)
     rest = np.concatenate([-du * Z - fx * (c * X - s * Y), -dv * Z - fy * (-s * X - c * Y)])
-    t = np.linalg.lstsq(A[:, 2:], rest, rcond=None)[0]
-    for _ in range(5):
+    return roll, np.linalg.lstsq(A[:, 2:], rest, rcond=None)[0]
+
+
+@nb.njit(cache=True, nogil=True)
+def _refine_upright(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray, roll: float, t: np.ndarray,
+                    iterations: int = 10, tol: float = 1e-6):
+    """Gauss-Newton on the reprojection error over (roll, t) of the upright pose ``FRONTAL_ROTATION @ Rz(roll)``.
+
+    ``R X + t = (c X_x − s X_y + t_x, −s X_x − c X_y + t_y, t_z − X_z)``; its derivative in the roll is
+    ``(−s X_x − c X_y, −c X_x + s X_y, 0)``. Returns (roll, t, converged).
+    """
+    fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
+    JtJ = np.empty((4, 4))
+    Jtr = np.empty(4)
+    j = np.empty(4)
+    for _ in range(iterations):
         c, s = np.cos(roll), np.sin(roll)
-        P = np.column_stack([c * X - s * Y + t[0], -s * X - c * Y + t[1], t[2] - Z])   # R X + t
-        dP = np.column_stack([-s * X - c * Y, -c * X + s * Y, zero])                     # d(R X)/d roll
-        iz = 1.0 / P[:, 2]
-        r = np.concatenate([fx * P[:, 0] * iz - du, fy * P[:, 1] * iz - dv])
-        J = np.vstack([np.column_stack([fx * (dP[:, 0] * iz), fx * iz, zero, -fx * P[:, 0] * iz ** 2]),
-                       np.column_stack([fy * (dP[:, 1] * iz), zero, fy * iz, -fy * P[:, 1] * iz ** 2])])
-        step = np.linalg.lstsq(J, -r, rcond=None)[0]
-        roll, t = roll + step[0], t + step[1:]
-        if abs(step[0]) < 1e-10 and np.abs(step[1:]).max() < 1e-8 * max(abs(t[2]), 1.0):
-            break
-    c, s = np.cos(roll), np.sin(roll)
-    return FRONTAL_ROTATION @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]), t
+        JtJ[:] = 0.0
+        Jtr[:] = 0.0
+        for i in range(len(xyz)):
+            X, Y, Z = xyz[i, 0], xyz[i, 1], xyz[i, 2]
+            px, py, pz = c * X - s * Y + t[0], -s * X - c * Y + t[1], t[2] - Z
+            if pz <= 0.0:
+                return roll, t, False
+            iz = 1.0 / pz
+            for axis in range(2):
+                if axis == 0:
+                    f, p, dp, r = fx, px, -s * X - c * Y, fx * px * iz + cx - uv[i, 0]
+                    j[1], j[2] = f * iz, 0.0
+                else:
+                    f, p, dp, r = fy, py, -c * X + s * Y, fy * py * iz + cy - uv[i, 1]
+                    j[1], j[2] = 0.0, f * iz
+                j[0] = f * dp * iz
+                j[3] = -f * p * iz * iz
+                for a in range(4):
+                    Jtr[a] += j[a] * r
+                    for b in range(4):
+                        JtJ[a, b] += j[a] * j[b]
+        step = _solve_spd(JtJ, -Jtr)
+        roll += step[0]
+        t = t + step[1:]
+        if abs(step[0]) < tol and np.sqrt(step[1] ** 2 + step[2] ** 2 + step[3] ** 2) < tol * max(abs(t[2]), 1.0):
+            return roll, t, True
+    return roll, t, False
 
 
 def _checked_pose(R: np.ndarray, t: np.ndarray, K: np.ndarray, xyz: np.ndarray, uv: np.ndarray,

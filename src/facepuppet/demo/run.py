@@ -30,11 +30,12 @@ brow tilt and lower-lip rules, when the error was 0.88):
   noise of 0.5, 1 and 2 px give 0.29, 0.43 and 0.65), and the key expressions' examples carry the tracker's
   errors too (in the calibration's blink the lips move 0.5 cm in head coordinates where they stand still);
 - the eye corners and nostrils, the head pose's stable points, are not measured but placed with the layout by
-  the face frame, a similarity aligned on the eye centres. It cannot show a turn of the head (the solved yaw
-  varies by 0.5-1.4 degrees where the true one varies by 6), and it jumps when the lids close or the brows
-  lower (the nostrils 4-5 px off in the calibration's blink and brow-down): the pose is about 7 degrees off
-  (median). With the true pose the error is 0.77; with the true stable points 0.66 (eye corners alone 0.78,
-  nostrils alone 0.75). Measuring the nostrils on their dark pixels (1.2 px from the true ones) made it
+  the face frame, a similarity aligned on the eye centres. It cannot show a turn of the head (solved freely,
+  the yaw varied by 0.5-1.4 degrees where the true one varies by 6, and against it: the colour tracker now
+  holds yaw and pitch at zero), and it jumps when the lids close or the brows lower (the nostrils 4-5 px off
+  in the calibration's blink and brow-down): the pose is about 7 degrees off (median). With the true pose
+  the error is 0.77; with the true stable points 0.66 (eye corners alone 0.78, nostrils alone 0.75).
+  Measuring the nostrils on their dark pixels (1.2 px from the true ones) made it
   worse, 0.94 (0.88 without): the pitch rests on the nose's height under the eyes, and with the nose base
   about 0.9 cm proud of the eye corners a pixel of it is several degrees; smoothing that measurement lagged
   the head (1.09).
