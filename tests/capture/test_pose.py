@@ -87,6 +87,10 @@ def test_upright_pose_keeps_roll_and_fits_translation(roll):
         pose = estimate_pose(project(xyz, R, t), SIZE, out_of_plane=False)
         assert pose and np.allclose(pose.rotation, R, atol=1e-6) and np.allclose(pose.translation, t, atol=1e-4)
         assert np.allclose(pose.angles(), np.radians([0.0, 0.0, roll]), atol=1e-6)
+        # from the last frame's pose (the tracker's path), to a head rolled 5 degrees further and moved
+        R2, t2 = rotation(roll=roll + 5.0), t + np.array([1.0, -0.5, 2.0])
+        again = estimate_pose(project(xyz, R2, t2), SIZE, out_of_plane=False, previous=pose)
+        assert again and np.allclose(again.rotation, R2, atol=1e-6) and np.allclose(again.translation, t2, atol=1e-4)
 
 
 def test_upright_pose_does_not_turn_a_layout_placed_off_centre_towards_the_camera():

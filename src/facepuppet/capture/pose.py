@@ -333,8 +333,8 @@ def estimate_pose(image_points: Mapping[str, np.ndarray] | np.ndarray, frame_siz
         Landmark names of an array ``image_points``.
     out_of_plane : bool
         Solve the head's yaw and pitch (the default). False holds them at zero, the head facing along the
-        camera's optical axis, and solves only its roll and position: for landmarks placed
-        by an in-plane similarity of a fixed layout, which carry no sign of a turn. Solved freely, such points
+        camera's optical axis, and solves only its roll and position: for landmarks placed by an in-plane
+        similarity of a fixed layout, which carry no sign of a turn. Solved freely, such points
         turn the head towards the camera wherever it sits in the image, and since a head turning about the
         neck also moves across the image, that rotation runs against the real turn (the colour tracker's yaw
         correlated at -0.93 with the digital performer's true yaw and at -0.89 with MediaPipe's on a real
