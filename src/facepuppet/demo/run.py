@@ -17,11 +17,11 @@ relative vertex error ``||V_pred - V_true|| / ||V_true - T_B||`` (Frobenius norm
 0 is perfect; 1 is as far off as showing the neutral face.
 
 Which tracker is the default (:data:`DEFAULT_TRACKER`): measured with ``benchmarks/eval_demo_color.py`` on
-this performer (320 px frames, 8 s, seeds 0, 1, 2), the colour tracker's error is 0.85, 1.06 and 1.05 (mean
-0.99 on 2026-11-30; it was 0.89 before that day's filter change, 0.92 after it and 0.99 after the brows' edge
-rule), above the bar of 0.5; with the true curves it is 0.12. Where the colour tracker's error comes from
-(measured on those seeds, swapping parts of its track for the truth, with the tracker as it was before its
-brow tilt and lower-lip rules, when the error was 0.88):
+this performer (320 px frames, 8 s, seeds 0, 1, 2), the colour tracker's error is 0.83, 1.07 and 1.05 (mean
+0.98 on 2026-11-30 with its upright head pose; 0.89 before that day's filter change, 0.92 after it and 0.99
+after the brows' edge rule), above the bar of 0.5; with the true curves it is 0.12. Where the colour
+tracker's error comes from (measured on those seeds, swapping parts of its track for the truth, with the
+tracker as it was before its brow tilt and lower-lip rules, when the error was 0.88):
 
 - its curves are about 1.9 px (median) from the true ones, brows 1.6, lids 1.4, lips 2.3, nostrils 2.3; as
   large as the motion the expressions give the feature points (rms about 0.2-0.4 cm, 2-4 px). Any one family
