@@ -362,8 +362,6 @@ def estimate_pose(image_points: Mapping[str, np.ndarray] | np.ndarray, frame_siz
             float(HeadPose(previous.rotation, previous.translation, K).angles()[2]),
             np.asarray(previous.translation, dtype=float))
         roll, t, ok = _refine_upright(xyz, uv, K, start[0], start[1].copy())
-        if not ok and previous:
-            roll, t, ok = _refine_upright(xyz, uv, K, *_upright_start(K, xyz, uv))
         if not ok or not np.isfinite(t).all():
             return FailedPose("upright head pose did not converge")
         c, s = np.cos(roll), np.sin(roll)
