@@ -107,7 +107,8 @@ def main(argv=None) -> int:
                                   model=model, progress=False)
             cal = calibrate_auto(clip, character.names, config=CalibrateConfig(tracker=opts), scores_track=ref,
                                  track=ref if backend == "mediapipe" else None)
-            rig, _ = fit_rig(Performer(cal.neutral, cal.examples, cal.names, cal.point_names, cal.noise), character)
+            rig, _ = fit_rig(Performer(cal.neutral, cal.examples, cal.names, cal.point_names, cal.noise,
+                                       cal.nuisance), character)
             dt = np.inf
             for _ in range(max(args.repeat, 1)):
                 t0 = time.perf_counter()

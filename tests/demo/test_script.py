@@ -64,7 +64,8 @@ def test_too_short_performance_is_refused():
 def test_calibration_holds_each_key_alone():
     c = calibration_script(hold=0.5, transition=0.25, fps=30)
     assert list(c.marks) == ["neutral", *KEY_NAMES]
-    assert np.allclose(c.head_motion, 0.0)
+    a, b = c.spans["head-motion"]
+    assert np.allclose(c.head_motion[:a], 0.0)     # the head is still while the expressions are shown
     for name, (a, b) in c.holds.items():
         assert b - a >= 14  # about 0.5 s at 30 fps
         held = c.weights[a:b]
@@ -73,3 +74,17 @@ def test_calibration_holds_each_key_alone():
             expect[KEY_NAMES.index(name)] = 1.0
         assert np.allclose(held, expect[None]), name
         assert a <= c.marks[name] < b
+
+
+def test_calibration_ends_with_the_neutral_face_and_the_head_moving():
+    c = calibration_script(hold=0.5, transition=0.25, fps=30, head_motion=5.0)
+    a, b = c.spans["head-motion"]
+    assert b == c.n_frames and b - a == 150
+    assert a >= max(stop for _, stop in c.holds.values())
+    assert np.all(c.weights[a:] == 0.0)
+    np.testing.assert_allclose(c.head_motion[a], 0.0, atol=1e-12)        # eased in from the frontal pose
+    reach = np.abs(c.head_motion[a:]).max(axis=0) / np.asarray(HEAD_AMPLITUDE)
+    assert np.all(reach > 0.9), reach                                     # every channel sweeps its range
+    assert calibration_script(head_motion=0.0).spans == {}
+    with pytest.raises(ValueError, match="head_motion"):
+        calibration_script(head_motion=-1.0)

@@ -34,6 +34,25 @@ def test_round_trip_with_noise(tmp_path, rng):
     perf = Performer(perf.neutral, perf.examples, perf.names, perf.point_names, rng.uniform(0.1, 1, (5, 3)))
     save_performer(tmp_path / "ex.npz", perf)
     np.testing.assert_array_equal(load_performer(tmp_path / "ex.npz").noise, perf.noise)
+    assert load_performer(tmp_path / "ex.npz").nuisance is None
+
+
+def test_round_trip_with_nuisance_and_the_rig_discounts_it(tmp_path, rng):
+    from facepuppet.io.character import Character
+    from facepuppet.io.rig import fit_rig
+
+    perf = make_performer(rng)
+    nuisance = perf.neutral[None] + rng.normal(scale=0.05, size=(12, 5, 3))
+    perf = Performer(perf.neutral, perf.examples, perf.names, perf.point_names, nuisance=nuisance)
+    save_performer(tmp_path / "ex.npz", perf)
+    back = load_performer(tmp_path / "ex.npz")
+    np.testing.assert_array_equal(back.nuisance, nuisance)
+    base = rng.normal(size=(8, 3))
+    character = Character(base, base[None] + rng.normal(size=(3, 8, 3)), perf.names,
+                          np.array([[0, 1, 2]], dtype=np.int64), name="c")
+    assert fit_rig(back, character)[0].mapper.whiten is not None
+    plain = Performer(perf.neutral, perf.examples, perf.names, perf.point_names)
+    assert fit_rig(plain, character)[0].mapper.whiten is None
 
 
 @pytest.mark.parametrize("change,match", [
@@ -47,6 +66,8 @@ def test_round_trip_with_noise(tmp_path, rng):
     (dict(neutral=np.full((5, 3), np.nan)), "finite"),
     (dict(noise=np.ones((5, 2))), r"noise must hold positive finite numbers with shape \(5, 3\)"),
     (dict(noise=np.zeros((5, 3))), "noise must hold positive"),
+    (dict(nuisance=np.zeros((5, 3))), r"nuisance must hold finite numbers with shape \(K, 5, 3\)"),
+    (dict(nuisance=np.full((2, 5, 3), np.inf)), "nuisance must hold finite numbers"),
 ])
 def test_validation(rng, change, match):
     perf = make_performer(rng)

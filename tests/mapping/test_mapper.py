@@ -335,3 +335,62 @@ def test_point_scale_round_trip_and_checks(pair, rng):
         ExpressionMapper.fit(sb, se, tb, te, point_scale=np.ones((P - 1, 3)))
     with pytest.raises(ValueError, match="values <= 0"):
         ExpressionMapper.fit(sb, se, tb, te, point_scale=np.zeros_like(sb))
+
+
+def test_nuisance_transform_shrinks_each_direction_by_its_variance():
+    """Known answer: nuisance along e_0 with variance 4 and e_1 with variance 1; T is diagonal with
+    √(f / (λ + f)), f = floor · 4, and 1 where the nuisance never moves."""
+    from facepuppet.mapping._metric import nuisance_transform
+
+    n = np.zeros((4, 5))
+    n[0, 0], n[1, 0], n[2, 1], n[3, 1] = 2.0 * np.sqrt(2), -2.0 * np.sqrt(2), np.sqrt(2), -np.sqrt(2)
+    floor = 0.01
+    f = floor * 4.0
+    expect = np.diag([np.sqrt(f / (4.0 + f)), np.sqrt(f / (1.0 + f)), 1.0, 1.0, 1.0])
+    np.testing.assert_allclose(nuisance_transform(n, floor), expect, atol=1e-12)
+    np.testing.assert_array_equal(nuisance_transform(np.zeros((3, 5)), floor), np.eye(5))
+
+
+@pytest.mark.parametrize("method", ALL)
+def test_nuisance_keeps_neutral_and_examples_exact(method, pair, rng):
+    sb, se, tb, te = pair
+    nuisance = sb[None] + rng.normal(scale=0.2, size=(30, P, 3))
+    m = ExpressionMapper.fit(sb, se, tb, te, method=method, nuisance=nuisance)
+    np.testing.assert_allclose(m.weights(se), np.eye(M), atol=1e-6)
+    np.testing.assert_allclose(m.weights(sb), np.zeros(M), atol=1e-9)
+
+
+@pytest.mark.parametrize("method", ["adaptive", "bounded", "lsq", "linear"])
+def test_nuisance_motion_is_not_read_as_an_expression(method, pair, rng):
+    """The head's motion moves the points along a direction close to example 1's (the performer's head turn
+    looks partly like a key expression): without the nuisance the frame reads as example 1, with it the
+    true blend (0.5 of example 0 alone) comes back."""
+    sb, se, tb, te = pair
+    turn = 0.8 * (se[1] - sb) + 0.2 * rng.normal(scale=0.3, size=(P, 3))
+    nuisance = sb[None] + rng.uniform(-1.0, 1.0, size=(40, 1, 1)) * turn[None]
+    true = np.zeros(M)
+    true[0] = 0.5
+    frame = sb + 0.5 * (se[0] - sb) + 0.7 * turn
+    plain = ExpressionMapper.fit(sb, se, tb, te, method=method).weights(frame)
+    aware = ExpressionMapper.fit(sb, se, tb, te, method=method, nuisance=nuisance).weights(frame)
+    assert plain[1] > 0.3
+    np.testing.assert_allclose(aware, true, atol=0.02)
+
+
+def test_nuisance_round_trip_and_checks(pair, rng):
+    sb, se, tb, te = pair
+    nuisance = sb[None] + rng.normal(scale=0.2, size=(30, P, 3))
+    m = ExpressionMapper.fit(sb, se, tb, te, nuisance=nuisance, point_scale=rng.uniform(0.5, 2.0, sb.shape))
+    back = ExpressionMapper.from_arrays(m.to_arrays())
+    x = sb + rng.normal(scale=0.1, size=(5, P, 3))
+    np.testing.assert_array_equal(back.weights(x), m.weights(x))
+    np.testing.assert_array_equal(back.whiten, m.whiten)
+    assert ExpressionMapper.fit(sb, se, tb, te).whiten is None
+    with pytest.raises(ValueError, match=r"nuisance must have shape \(K, 24, 3\) like source_base"):
+        ExpressionMapper.fit(sb, se, tb, te, nuisance=np.zeros((5, P - 1, 3)))
+    with pytest.raises(ValueError, match="nuisance must have 3 dimensions"):
+        ExpressionMapper.fit(sb, se, tb, te, nuisance=sb)
+    with pytest.raises(ValueError, match="nuisance holds NaN"):
+        ExpressionMapper.fit(sb, se, tb, te, nuisance=np.full((3, P, 3), np.nan))
+    with pytest.raises(ValueError, match=r"nuisance_floor must lie in \(0, 1\]"):
+        ExpressionMapper.fit(sb, se, tb, te, nuisance=nuisance, nuisance_floor=0.0)

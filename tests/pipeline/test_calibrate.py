@@ -9,7 +9,10 @@ from facepuppet.capture.curves import CURVE_NAMES, POINT_NAMES
 from facepuppet.errors import FacepuppetError
 from facepuppet.io.track import Track
 from facepuppet.pipeline.calibrate import (
+    HEAD_MOTION,
+    MIN_HEAD_MOTION_FRAMES,
     CalibrateConfig,
+    Mark,
     calibrate_auto,
     check_examples,
     coordinate_noise,
@@ -55,6 +58,47 @@ def test_read_marks(tmp_path):
     p = write(tmp_path, "time,name\n# a comment\n\n0.5s,neutral\n00:02.0,jawOpen\n95,mouthSmile\n")
     marks = read_marks(p, FPS, 200, names=["jawOpen", "mouthSmile"])
     assert [(m.frame, m.name) for m in marks] == [(15, "neutral"), (60, "jawOpen"), (95, "mouthSmile")]
+
+
+def test_read_marks_with_head_motion_spans(tmp_path):
+    p = write(tmp_path, "0.5s,neutral\n60,jawOpen\n3s-4.5s,head-motion\n150-200,head-motion\n")
+    marks = read_marks(p, FPS, 200, names=["jawOpen"])
+    assert [(m.frame, m.stop, m.name) for m in marks] == [(15, None, "neutral"), (60, None, "jawOpen"),
+                                                          (90, 135, HEAD_MOTION), (150, 200, HEAD_MOTION)]
+
+
+@pytest.mark.parametrize("text, match", [
+    ("0,neutral\n5,jawOpen\n50-40,head-motion\n", r"line 3: the span 50-40 ends before it starts"),
+    ("0,neutral\n5,jawOpen\n50,head-motion\n", r"line 3: head-motion marks a span: write START-END"),
+    ("0,neutral\n5-9,jawOpen\n", r"line 2: only head-motion marks a span .START-END.; 'jawOpen' marks one"),
+    ("0,neutral\n5,jawOpen\n1s-5s,head-motion\n", r"line 3: 1s-5s \(head-motion\) is past the end"),
+    ("0,neutral\n1-2s,head-motion\n", "at least one key expression"),
+    ("0,neutral\n5,jawOpen\n10-x,head-motion\n", r"line 3: 'x' is not a time"),
+])
+def test_bad_head_motion_spans_named(tmp_path, text, match):
+    with pytest.raises(ValueError, match=match):
+        read_marks(write(tmp_path, text), FPS, 100, names=["jawOpen"])
+
+
+def test_head_motion_frames_become_the_nuisance(rng):
+    neutral = rng.normal(size=(P, 3))
+    smile = rng.normal(size=(P, 3))
+    f = 80
+    points = np.repeat(neutral[None], f, axis=0)
+    points[20:30] = neutral + smile
+    points[40:70] += 0.1 * rng.normal(size=(30, P, 3))        # the head moving under a neutral face
+    valid = np.ones(f, bool)
+    valid[50] = False                                           # a lost frame in the span is left out
+    track = make_track(points, valid)
+    marks = [Mark(5, "neutral", 1, "5"), Mark(25, "mouthSmile", 2, "25"), Mark(40, HEAD_MOTION, 3, "40-60", 60),
+             Mark(60, HEAD_MOTION, 4, "60-70", 70)]
+    result = examples_from_marks(track, marks, CalibrateConfig(window=4))
+    assert result.names == ("mouthSmile",)
+    np.testing.assert_allclose(result.nuisance, np.delete(points[40:70], 10, axis=0))
+    assert examples_from_marks(track, marks[:2], CalibrateConfig(window=4)).nuisance is None
+    short = [*marks[:2], Mark(40, HEAD_MOTION, 3, "40-45", 40 + MIN_HEAD_MOTION_FRAMES - 1)]
+    with pytest.raises(FacepuppetError, match=r"head-motion 40-45 \(line 3\): only 9 frames with a face"):
+        examples_from_marks(track, short, CalibrateConfig(window=4))
 
 
 @pytest.mark.parametrize("text, match", [

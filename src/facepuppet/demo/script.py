@@ -24,6 +24,7 @@ __all__ = [
     "Script",
     "performance_script",
     "calibration_script",
+    "head_sweep",
 ]
 
 #: The demo's key expressions, in the order of every weight vector.
@@ -114,6 +115,9 @@ class Script:
         empty for a performance.
     holds : dict of str -> (int, int)
         For a calibration script, the frames ``[start, stop)`` over which each expression is held steady.
+    spans : dict of str -> (int, int)
+        For a calibration script, the frames ``[start, stop)`` of the neutral face with the head moving
+        (``"head-motion"``, the marks file's span); empty otherwise.
     """
 
     weights: np.ndarray
@@ -122,6 +126,7 @@ class Script:
     names: tuple[str, ...] = KEY_NAMES
     marks: dict[str, int] = field(default_factory=dict)
     holds: dict[str, tuple[int, int]] = field(default_factory=dict)
+    spans: dict[str, tuple[int, int]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         w, h = np.shape(self.weights), np.shape(self.head_motion)
@@ -231,12 +236,16 @@ def _head_motion(t: np.ndarray, seconds: float, rng: np.random.Generator) -> np.
     return ease[:, None] * wave * amp[None]
 
 
-def calibration_script(hold: float = 0.5, transition: float = 0.25, fps: float = 30.0) -> Script:
-    """A calibration performance: neutral, then each key expression in turn, held still.
+def calibration_script(hold: float = 0.5, transition: float = 0.25, fps: float = 30.0,
+                       head_motion: float = 5.0) -> Script:
+    """A calibration performance: neutral, then each key expression in turn, held still, then the neutral face
+    with the head moving.
 
-    The head is still and frontal throughout. The face holds neutral for ``hold`` seconds, then for each
-    key in :data:`KEY_NAMES` order rises to weight 1 over ``transition`` seconds, holds it ``hold`` seconds,
-    and falls back over ``transition`` seconds.
+    The head is still and frontal while the expressions are shown. The face holds neutral for ``hold``
+    seconds, then for each key in :data:`KEY_NAMES` order rises to weight 1 over ``transition`` seconds,
+    holds it ``hold`` seconds, and falls back over ``transition`` seconds. Last, for ``head_motion`` seconds,
+    the face stays neutral while the head turns, nods, tilts and moves through the whole range of
+    :data:`HEAD_AMPLITUDE` (:func:`head_sweep`): what a tracker reports there is no expression.
 
     Parameters
     ----------
@@ -244,18 +253,24 @@ def calibration_script(hold: float = 0.5, transition: float = 0.25, fps: float =
         Seconds of each held expression and of each rise or fall.
     fps : float
         Frames per second.
+    head_motion : float
+        Seconds of the head-motion span (0: none).
 
     Returns
     -------
     Script
-        ``marks`` gives the middle frame of each hold (``"neutral"`` and every key), ``holds`` its frames.
+        ``marks`` gives the middle frame of each hold (``"neutral"`` and every key), ``holds`` its frames,
+        ``spans["head-motion"]`` the frames of the head-motion span.
     """
     if not np.isfinite(hold) or hold * fps < 1:
         raise ValueError(f"hold must last at least one frame, got {hold} s at {fps} fps")
     if not np.isfinite(transition) or transition < 0:
         raise ValueError(f"transition must be a non-negative number of seconds, got {transition}")
+    if not np.isfinite(head_motion) or head_motion < 0:
+        raise ValueError(f"head_motion must be a non-negative number of seconds, got {head_motion}")
     k = len(KEY_NAMES)
-    seconds = hold + k * (hold + 2.0 * transition)
+    shown = hold + k * (hold + 2.0 * transition)
+    seconds = shown + head_motion
     n = _check_rate(seconds, fps)
     t = np.arange(n) / fps
     weights = np.zeros((n, k))
@@ -277,4 +292,25 @@ def calibration_script(hold: float = 0.5, transition: float = 0.25, fps: float =
         holds[name] = span(start + transition)
     for name, (a, b) in holds.items():
         marks[name] = (a + b - 1) // 2
-    return Script(weights, np.zeros((n, 6)), float(fps), marks=marks, holds=holds)
+    motion = np.zeros((n, 6))
+    spans: dict[str, tuple[int, int]] = {}
+    if head_motion > 0:
+        a = int(np.ceil(shown * fps - 1e-9))
+        motion[a:] = head_sweep(t[a:] - t[a])
+        spans["head-motion"] = (a, n)
+    return Script(weights, motion, float(fps), marks=marks, holds=holds, spans=spans)
+
+
+#: Frequencies (Hz) of :func:`head_sweep`'s channels (yaw, pitch, roll, x, y, z): distinct, so that the
+#: channels do not move in lockstep and every combination of directions is visited.
+_SWEEP_HZ = (0.45, 0.7, 0.55, 0.3, 0.4, 0.35)
+_SWEEP_RISE = 0.5  # s: the sweep eases in from the frontal pose
+
+
+def head_sweep(t: np.ndarray) -> np.ndarray:
+    """(F, 6) head motion through the range of :data:`HEAD_AMPLITUDE`: one sinusoid per channel, each at
+    its own frequency (``_SWEEP_HZ``), eased in over half a second from the frontal pose at ``t = 0``."""
+    t = np.asarray(t, dtype=float)
+    amp = np.asarray(HEAD_AMPLITUDE)
+    wave = np.sin(2.0 * np.pi * np.asarray(_SWEEP_HZ)[None] * t[:, None])
+    return _bump(t, 0.0, _SWEEP_RISE, np.inf, 1.0)[:, None] * wave * amp[None]

@@ -13,6 +13,8 @@ key                shape        meaning
 ``names``          (M,)         name of each key expression; pairs it with the key-model of the same name
 ``point_names``    (P,)         optional: names of the feature points (as in the track file)
 ``noise``          (P, D)       optional: noise scale of each coordinate as the tracker gives it (> 0)
+``nuisance``       (K, P, D)    optional: feature points of frames whose motion is not an expression (a
+                                neutral face while the head moves); the mapping discounts that motion
 =================  ===========  ==========================================================================
 
 Feature points are in head coordinates (head pose removed), the same space as the track file's ``points``.
@@ -52,6 +54,10 @@ class Performer:
         Noise scale of each feature coordinate as the tracker gives it (positive; see
         :func:`facepuppet.pipeline.calibrate.coordinate_noise`): the mapping divides displacements by it.
         None: all coordinates alike.
+    nuisance : (K, P, D) float, or None
+        Feature points of frames whose motion away from ``neutral`` is no expression (the neutral face while
+        the head moves, or what the tracker adds that no key expression explains): the mapping discounts
+        the directions they move in (the mapper's ``nuisance`` option).
     """
 
     neutral: np.ndarray
@@ -59,6 +65,7 @@ class Performer:
     names: tuple[str, ...]
     point_names: tuple[str, ...] | None = None
     noise: np.ndarray | None = None
+    nuisance: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n, e = np.shape(self.neutral), np.shape(self.examples)
@@ -81,6 +88,11 @@ class Performer:
             z = np.asarray(self.noise)
             if z.shape != n or not (np.all(np.isfinite(z)) and np.all(z > 0)):
                 raise ValueError(f"noise must hold positive finite numbers with shape {n}, got shape {z.shape}")
+        if self.nuisance is not None:
+            z = np.asarray(self.nuisance)
+            if z.ndim != 3 or z.shape[1:] != n or len(z) < 1 or not np.all(np.isfinite(z)):
+                raise ValueError(f"nuisance must hold finite numbers with shape (K, {n[0]}, {n[1]}), "
+                                 f"got shape {z.shape}")
 
 
 def save_performer(path: str | os.PathLike, performer: Performer) -> None:
@@ -96,6 +108,8 @@ def save_performer(path: str | os.PathLike, performer: Performer) -> None:
         arrays["point_names"] = np.asarray(performer.point_names, dtype=str)
     if performer.noise is not None:
         arrays["noise"] = np.asarray(performer.noise, dtype=np.float64)
+    if performer.nuisance is not None:
+        arrays["nuisance"] = np.asarray(performer.nuisance, dtype=np.float64)
     with atomic_path(path, suffix=".npz") as tmp:
         np.savez_compressed(tmp, **arrays)
 
@@ -115,6 +129,7 @@ def load_performer(path: str | os.PathLike) -> Performer:
             names=tuple(str(n) for n in np.atleast_1d(arrays["names"])),
             point_names=None if point_names is None else tuple(str(n) for n in np.atleast_1d(point_names)),
             noise=arrays["noise"].astype(np.float64) if "noise" in arrays else None,
+            nuisance=arrays["nuisance"].astype(np.float64) if "nuisance" in arrays else None,
         )
     except (ValueError, TypeError) as e:
         raise FacepuppetError(f"{path}: invalid key expressions file ({e})") from e

@@ -149,6 +149,8 @@ def fit_rig(performer: Performer, character: Character, *, method: str | None = 
         options["names"] = pairing.names  # the mapper names examples in its diagnostics
     if performer.noise is not None:
         options["point_scale"] = performer.noise  # coordinates the tracker follows poorly count less
+    if performer.nuisance is not None:
+        options["nuisance"] = performer.nuisance  # motion that is not an expression counts less
     mapper = ExpressionMapper.fit(performer.neutral, examples, character.neutral, targets, **options)
     rig = Rig(mapper=mapper, character=character, names=pairing.names,
               point_names=tuple(performer.point_names or ()))

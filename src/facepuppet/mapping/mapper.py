@@ -11,6 +11,7 @@ import numpy as np
 from facepuppet.errors import FacepuppetError
 from facepuppet.io.atomic import atomic_path
 from facepuppet.mapping._methods import DEFAULT_METHOD, METHODS, SOLVERS
+from facepuppet.mapping._metric import nuisance_transform
 
 __all__ = ["ExpressionMapper", "MapperOptions", "FORMAT", "FORMAT_VERSION"]
 
@@ -53,6 +54,13 @@ class MapperOptions:
         frames' (Eq. 13), is divided by it before the method sees it, so coordinates a tracker follows
         poorly count less (a generalised least squares with a diagonal noise covariance). None: all equal.
         Scaling keeps the guarantees (neutral and examples exact).
+    nuisance : (K, P, D) float, optional
+        Feature points of frames showing the performer's neutral face while the head moves (or the light
+        changes): the directions in which they move away from ``source_base`` count less, in proportion to
+        how much they move (a generalised least squares, :mod:`facepuppet.mapping._metric`).
+    nuisance_floor : float in (0, 1]
+        How far the nuisance directions are discounted: the noise floor as a share of the largest nuisance
+        variance (smaller discounts more).
     """
 
     method: str = DEFAULT_METHOD
@@ -65,6 +73,8 @@ class MapperOptions:
     threshold: float = 1e-5
     names: tuple[str, ...] | None = None
     point_scale: object = None
+    nuisance: object = None
+    nuisance_floor: float = 1e-4
 
 
 def _array(x, name: str, ndim: int, last: int | tuple[int, ...] | None = None) -> np.ndarray:
@@ -113,6 +123,8 @@ def _resolve(opts: MapperOptions, m: int) -> dict:
     if not (0.0 < opts.threshold < 1.0):
         raise ValueError(f"threshold must lie in (0, 1), got {opts.threshold}")
     out["threshold"] = float(opts.threshold)
+    if not (0.0 < opts.nuisance_floor <= 1.0):
+        raise ValueError(f"nuisance_floor must lie in (0, 1], got {opts.nuisance_floor}")
     if opts.names is not None:
         names = tuple(str(n) for n in opts.names)
         if len(names) != m:
@@ -186,7 +198,7 @@ class ExpressionMapper:
 
     def __init__(self, *, method: str, solver, source_base: np.ndarray, source_examples: np.ndarray,
                  target_base: np.ndarray, target_deltas: np.ndarray, names: tuple[str, ...] | None,
-                 options: dict, point_scale: np.ndarray | None = None) -> None:
+                 options: dict, point_scale: np.ndarray | None = None, whiten: np.ndarray | None = None) -> None:
         self.method = method
         self._solver = solver
         self.source_base = source_base
@@ -200,6 +212,7 @@ class ExpressionMapper:
         self._s_flat = source_base.reshape(-1)
         self.point_scale = point_scale
         self._inv_scale = None if point_scale is None else 1.0 / point_scale.reshape(-1)
+        self.whiten = whiten
         self._t_flat = target_base.reshape(-1)
         self._d_flat = np.ascontiguousarray(target_deltas.reshape(self.n_examples, -1))
 
@@ -220,7 +233,8 @@ class ExpressionMapper:
             The character's key-models T_i.
         **options
             Fields of :class:`MapperOptions` (``method``, ``bounds``, ``ridge``, ``angle_ridge``,
-            ``noise_ridge``, ``shrinkage``, ``correct``, ``threshold``, ``names``, ``point_scale``).
+            ``noise_ridge``, ``shrinkage``, ``correct``, ``threshold``, ``names``, ``point_scale``,
+            ``nuisance``, ``nuisance_floor``).
 
         Returns
         -------
@@ -259,12 +273,17 @@ class ExpressionMapper:
             if scale.shape != sb.shape or not (scale > 0).all():
                 raise ValueError(f"point_scale must be positive with shape {sb.shape} like source_base, got "
                                  f"shape {scale.shape}" + ("" if scale.shape != sb.shape else " with values <= 0"))
-        V = (se - sb[None]).reshape(len(se), -1)  # Eq. 5
-        if scale is not None:
-            V = V / scale.reshape(-1)
+        whiten = None
+        if opts.nuisance is not None:
+            nu = _array(opts.nuisance, "nuisance", 3)
+            if nu.shape[1:] != sb.shape:
+                raise ValueError(f"nuisance must have shape (K, {sb.shape[0]}, {sb.shape[1]}) like source_base, "
+                                 f"got {nu.shape}")
+            whiten = nuisance_transform(_displacements(nu, sb, scale), float(opts.nuisance_floor))
+        V = _displacements(se, sb, scale, whiten)  # Eq. 5
         solver = METHODS[opts.method].solver.fit(V, resolved, names)
         return cls(method=opts.method, solver=solver, source_base=sb, source_examples=se, target_base=tb,
-                   target_deltas=te - tb[None], names=names, options=resolved, point_scale=scale)
+                   target_deltas=te - tb[None], names=names, options=resolved, point_scale=scale, whiten=whiten)
 
     # ----------------------------------------------------------------------------------------- runtime
     def weights(self, points) -> np.ndarray:
@@ -291,6 +310,8 @@ class ExpressionMapper:
             raise ValueError(f"points hold NaN or inf (frame {f}); map only the valid frames")
         if self._inv_scale is not None:
             D = D * self._inv_scale
+        if self.whiten is not None:
+            D = D @ self.whiten
         w = self._solver(D)
         return w[0] if single else w
 
@@ -349,7 +370,7 @@ class ExpressionMapper:
         dict of str -> ndarray
             Keys ``format``, ``version``, ``method``, ``solver``, ``source_base``, ``source_examples``,
             ``target_base``, ``target_deltas``, ``names`` ((0,) when unnamed), ``option_*``, ``solver_*`` and
-            ``point_scale`` when it was set.
+            ``point_scale`` and ``whiten`` (the nuisance transform) when they were set.
         """
         out = {
             "format": np.array(FORMAT), "version": np.array(FORMAT_VERSION), "method": np.array(self.method),
@@ -360,6 +381,8 @@ class ExpressionMapper:
         }
         if self.point_scale is not None:
             out["point_scale"] = self.point_scale
+        if self.whiten is not None:
+            out["whiten"] = self.whiten
         for key, value in self.options.items():
             out[f"option_{key}"] = np.asarray(value)
         for key, value in self._solver.to_arrays().items():
@@ -396,8 +419,10 @@ class ExpressionMapper:
             sb, se = np.asarray(arrays["source_base"], float), np.asarray(arrays["source_examples"], float)
             tb, td = np.asarray(arrays["target_base"], float), np.asarray(arrays["target_deltas"], float)
             scale = np.asarray(arrays["point_scale"], float) if "point_scale" in keys else None
+            whiten = np.asarray(arrays["whiten"], float) if "whiten" in keys else None
             ok = (sb.ndim == 2 and se.shape[1:] == sb.shape and td.shape[1:] == tb.shape
                   and (scale is None or (scale.shape == sb.shape and (scale > 0).all()))
+                  and (whiten is None or (whiten.shape == (sb.size, sb.size) and np.isfinite(whiten).all()))
                   and len(se) == len(td) and (names is None or len(names) == len(se))
                   and solver.F.shape[1] == sb.size)
         except (KeyError, ValueError, TypeError, IndexError) as e:
@@ -405,7 +430,8 @@ class ExpressionMapper:
         if not ok:
             raise FacepuppetError("damaged ExpressionMapper data (inconsistent shapes)")
         return cls(method=str(arrays["method"]), solver=solver, source_base=sb, source_examples=se,
-                   target_base=tb, target_deltas=td, names=names, options=options, point_scale=scale)
+                   target_base=tb, target_deltas=td, names=names, options=options, point_scale=scale,
+                   whiten=whiten)
 
     def save(self, path: str | os.PathLike) -> None:
         """Write the mapper to a versioned ``.npz`` file, atomically (no half-written file on failure)."""
@@ -430,6 +456,18 @@ class ExpressionMapper:
             return cls.from_arrays(arrays)
         except FacepuppetError as e:
             raise FacepuppetError(f"{path}: {e}") from e
+
+
+def _displacements(points: np.ndarray, base: np.ndarray, scale: np.ndarray | None,
+                   whiten: np.ndarray | None = None) -> np.ndarray:
+    """(K, P·D) displacement vectors of ``points`` (K, P, D) from ``base`` as the solver sees them (Eq. 5):
+    divided by the point scale, then multiplied by the nuisance transform (each only when given)."""
+    V = (points - base[None]).reshape(len(points), -1)
+    if scale is not None:
+        V = V / scale.reshape(-1)
+    if whiten is not None:
+        V = V @ whiten
+    return V
 
 
 def _plain(a: np.ndarray):

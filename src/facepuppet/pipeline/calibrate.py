@@ -18,12 +18,19 @@ Marks file
 One mark per line, ``WHEN,NAME``; blank lines and lines starting with ``#`` are ignored, and so is a header
 line ``time,name`` (or ``frame,name``). ``WHEN`` is a time in seconds written ``1.5s``, a clock time
 ``00:01.5`` (``MM:SS.s`` or ``HH:MM:SS.s``), or a frame index as a plain integer (0 = first frame).
-``NAME`` is ``neutral`` for the neutral face, otherwise a key-model name of the character. Example::
+``NAME`` is ``neutral`` for the neutral face, otherwise a key-model name of the character.
+
+Optionally, ``START-END,head-motion`` marks a span (any of the time forms above on both sides) in which the
+performer keeps a neutral face and moves the head: turns, nods, tilts, leans in and out, at the speed of a
+performance. What the tracker reports there is motion that is no expression, and the mapping discounts it
+(the mapper's ``nuisance`` option): with the colour tracker, whose head pose holds yaw and pitch at zero, it
+matters most. Several spans may be marked. Example::
 
     # time_or_frame,name
     0.5s,neutral
     00:02.0,jawOpen
     95,mouthSmile
+    14s-20s,head-motion
 """
 
 from __future__ import annotations
@@ -58,12 +65,17 @@ __all__ = [
     "save_examples",
     "make_profile",
     "NEUTRAL",
+    "HEAD_MOTION",
 ]
 
 log = logging.getLogger(__name__)
 
 #: The name that marks the neutral face.
 NEUTRAL = "neutral"
+#: The name that marks a span of a neutral face with the head moving (marks file).
+HEAD_MOTION = "head-motion"
+#: Least frames with a face over the head-motion spans.
+MIN_HEAD_MOTION_FRAMES = 10
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -130,6 +142,9 @@ class PerformerExamples:
     noise : (P, D) float or None
         Each coordinate's noise scale (:func:`coordinate_noise`), from the blendshape scores (``--auto``) or
         the key expressions' blends (marks); None when there were too few frames or from a camera.
+    nuisance : (K, P, D) float or None
+        Feature points whose motion away from the neutral face is no expression: the marked ``head-motion``
+        frames (marks), or each frame's points less what its blendshape scores explain (``--auto``).
     """
 
     neutral: np.ndarray
@@ -139,16 +154,19 @@ class PerformerExamples:
     frames: dict = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
     noise: np.ndarray | None = None
+    nuisance: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
 class Mark:
-    """One line of a marks file: the frame and the key-model name (``line`` for messages)."""
+    """One line of a marks file: the frame and the key-model name (``line`` for messages); for a
+    ``head-motion`` span, ``frame`` is its first frame and ``stop`` the frame after its last."""
 
     frame: int
     name: str
     line: int
     when: str
+    stop: int | None = None
 
 
 _CLOCK = re.compile(r"^(?:(\d+):)?(\d+):(\d+(?:\.\d*)?)$")
@@ -197,7 +215,7 @@ def read_marks(path: str | os.PathLike, fps: float, n_frames: int,
         text = path.read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as e:
         raise ValueError(f"{path}: cannot read marks file ({e})") from e
-    known = None if names is None else set(names) | {NEUTRAL}
+    known = None if names is None else set(names) | {NEUTRAL, HEAD_MOTION}
     marks: list[Mark] = []
     seen: dict[str, int] = {}
     for no, raw in enumerate(text.splitlines(), start=1):
@@ -210,23 +228,35 @@ def read_marks(path: str | os.PathLike, fps: float, n_frames: int,
         when, name = parts
         if not marks and when.lower() in ("time", "frame", "time_or_frame", "when"):
             continue
+        stop = None
         try:
-            frame = parse_when(when, fps)
+            if name == HEAD_MOTION:
+                if when.count("-") != 1:
+                    raise ValueError(f"{HEAD_MOTION} marks a span: write START-END, such as 14s-20s (got {when!r})")
+                start_text, stop_text = when.split("-")
+                frame, stop = parse_when(start_text, fps), parse_when(stop_text, fps)
+                if stop <= frame:
+                    raise ValueError(f"the span {when} ends before it starts")
+            elif "-" in when:
+                raise ValueError(f"only {HEAD_MOTION} marks a span (START-END); {name!r} marks one time, got "
+                                 f"{when!r}")
+            else:
+                frame = parse_when(when, fps)
         except ValueError as e:
             raise ValueError(f"{path} line {no}: {e}") from None
         if known is not None and name not in known:
             raise ValueError(f"{path} line {no}: the character has no key-model named {name!r} "
                              f"(it has {', '.join(sorted(known - {NEUTRAL}))}; and 'neutral')")
-        if frame >= n_frames:
+        if frame >= n_frames or (stop is not None and stop > n_frames):
             raise ValueError(f"{path} line {no}: {when} ({name}) is past the end of the video "
                              f"({n_frames} frames, {n_frames / fps:.2f} s)")
-        if name in seen:
+        if name in seen and name != HEAD_MOTION:
             raise ValueError(f"{path} line {no}: {name!r} is marked twice (first on line {seen[name]})")
         seen[name] = no
-        marks.append(Mark(frame, name, no, when))
+        marks.append(Mark(frame, name, no, when, stop))
     if NEUTRAL not in seen:
         raise ValueError(f"{path}: no mark names the neutral face (a line such as '0.5s,{NEUTRAL}')")
-    if len(marks) < 2:
+    if sum(m.name != HEAD_MOTION for m in marks) < 2:
         raise ValueError(f"{path}: marks only the neutral face; mark at least one key expression")
     return marks
 
@@ -287,15 +317,33 @@ def _average(track: Track, name: str, centre: int, config: CalibrateConfig) -> t
 
 def examples_from_marks(track: Track, marks: Sequence[Mark], config: CalibrateConfig | None = None,
                         ) -> PerformerExamples:
-    """Average the feature points around each mark of a tracked calibration video."""
+    """Average the feature points around each mark of a tracked calibration video; the frames of the
+    ``head-motion`` spans, if any, become the nuisance (:class:`PerformerExamples`)."""
     config = config or CalibrateConfig()
     averaged, frames = {}, {}
+    spans = [m for m in marks if m.name == HEAD_MOTION]
     for mark in marks:
-        averaged[mark.name], frames[mark.name] = _average(track, mark.name, mark.frame, config)
-    names = tuple(m.name for m in marks if m.name != NEUTRAL)
+        if mark.name != HEAD_MOTION:
+            averaged[mark.name], frames[mark.name] = _average(track, mark.name, mark.frame, config)
+    names = tuple(m.name for m in marks if m.name not in (NEUTRAL, HEAD_MOTION))
     neutral, examples = averaged[NEUTRAL], np.stack([averaged[n] for n in names])
     result = _finish(neutral, examples, names, track.point_names, frames, config)
-    return replace(result, noise=_noise_from_examples(track, neutral, examples))
+    return replace(result, noise=_noise_from_examples(track, neutral, examples), nuisance=_head_motion(track, spans))
+
+
+def _head_motion(track: Track, spans: Sequence[Mark]) -> np.ndarray | None:
+    """(K, P, D) feature points of the frames with a face in the head-motion spans; None without spans."""
+    if not spans:
+        return None
+    take = np.zeros(track.n_frames, bool)
+    for m in spans:
+        take[m.frame:m.stop] = True
+    take &= track.valid & np.isfinite(track.points).all(axis=(1, 2))
+    if take.sum() < MIN_HEAD_MOTION_FRAMES:
+        where = ", ".join(f"{m.when} (line {m.line})" for m in spans)
+        raise FacepuppetError(f"{HEAD_MOTION} {where}: only {int(take.sum())} frames with a face; at least "
+                              f"{MIN_HEAD_MOTION_FRAMES} are needed")
+    return track.points[take]
 
 
 def _noise_from_examples(track: Track, neutral: np.ndarray, examples: np.ndarray) -> np.ndarray | None:
@@ -851,4 +899,4 @@ def save_examples(path: str | os.PathLike, result: PerformerExamples) -> None:
     from facepuppet.io.performer import Performer, save_performer
 
     save_performer(path, Performer(result.neutral, result.examples, result.names, result.point_names,
-                                   result.noise))
+                                   result.noise, result.nuisance))
