@@ -20,6 +20,7 @@ from facepuppet.capture.color import LipHue, channels, lip_hue_table
 from facepuppet.capture.color_net import SUBAREAS, ColourNet, separating_weights, subarea_means
 from facepuppet.capture.curves import CURVE_NAMES, bezier_points
 from facepuppet.capture.face import CROP_EXTENT, FaceFrame, SkinModel
+from facepuppet.capture.shape_models import FAMILIES, JITTER, fit_shape_model, training_pairs
 from facepuppet.errors import FacepuppetError
 
 log = logging.getLogger(__name__)
@@ -138,7 +139,7 @@ def calibrate(frames, curves, *, base, name: str, augment: int, seed: int, progr
     if len(keep) < 1:
         raise FacepuppetError("no labelled frame to calibrate the colour tracker on")
     rng = np.random.default_rng(seed)
-    layouts, crops, curves_px, feats, skins = [], [], [], [], []
+    layouts, crops, curves_px, feats, skins, labels = [], [], [], [], [], []
     for k in keep:
         rgb = np.asarray(frames[k])
         if rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.dtype != np.uint8:
@@ -153,6 +154,7 @@ def calibrate(frames, curves, *, base, name: str, augment: int, seed: int, progr
         if feat.sum() < 10 or skin.sum() < 10:
             continue
         crops.append((rgb, frame))
+        labels.append(curves[k])
         curves_px.append(cpx)
         feats.append(feat)
         skins.append(skin)
@@ -194,17 +196,33 @@ def calibrate(frames, curves, *, base, name: str, augment: int, seed: int, progr
             break
         anchors[:2] = np.median(np.stack(got), axis=0)
     # Where the tracker itself puts the eyes' corners on the labelled frames (the eyelid model's patches are
-    # cut there at run time).
+    # cut there at run time), and the crops and placed layouts it reads the lips and brows on.
     tracker = ColorTracker(replace(profile, anchors=anchors))
     tracked = []
+    pairs: dict[str, tuple[list, list]] = {family: ([], []) for family in FAMILIES}
     for i, (rgb, fr) in enumerate(crops):
         got = tracker.track(rgb, 100 * i)
         A = fr.crop_matrix(_PX)
         tracked.append(got.curves @ A[:, :2].T + A[:, 2] if got.valid else None)
+        if got.valid and tracker.seen is not None:
+            crop, A_seen, placed = tracker.seen
+            seen_labels = labels[i] @ A_seen[:, :2].T + A_seen[:, 2]
+            for family, (xs, ys) in pairs.items():
+                x, y = training_pairs(crop, placed, seen_labels, family, rng)
+                xs += x
+                ys += y
     lids = _lid_model(plain, curves_px, tracked, rng)
-    log.info("profile %s: %d frames (%d relit), lip hue %.0f deg, weights %s, eyelid model %s", name, len(crops),
-             len(crops) * augment, lip.centre, np.round(weights, 2), "yes" if lids else "no")
-    return replace(profile, anchors=anchors, lids=lids)
+    shapes = {family: fit_shape_model(np.array(xs), np.array(ys)) for family, (xs, ys) in pairs.items()
+              if len(xs) >= _MIN_SHAPE_PATCHES}
+    log.info("profile %s: %d frames (%d relit), lip hue %.0f deg, weights %s, eyelid model %s, shape models %s",
+             name, len(crops), len(crops) * augment, lip.centre, np.round(weights, 2), "yes" if lids else "no",
+             ", ".join(shapes) or "none")
+    return replace(profile, anchors=anchors, lids=lids, shapes=shapes)
+
+
+#: Fewest training patches (jittered copies included) for a shape model: fewer labelled frames than this
+#: over the jitter copies leave the rules alone.
+_MIN_SHAPE_PATCHES = 20 * (JITTER[0] + 1)
 
 
 #: Jittered copies of each labelled eye for the eyelid model: the tracker's eye corners are not the labels'.

@@ -44,6 +44,7 @@ from facepuppet.capture.outlines import (
 )
 from facepuppet.capture.pose import STABLE_FEATURES, estimate_pose, points_in_head, pose_point_index
 from facepuppet.capture.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
+from facepuppet.capture.shape_models import FAMILIES, apply_shape_models
 from facepuppet.capture.snakes import LOWER, UPPER, SnakeConfig, SnakeSolver, snake_fields
 
 __all__ = ["ColorTrackerConfig", "ColorTracker"]
@@ -104,6 +105,10 @@ class ColorTrackerConfig:
         otherwise average out before it opened the filter (``benchmarks/bench_animate.py``, eyeBlink weights
         against MediaPipe's scores, d_cutoff 1 -> 4 Hz: performer_c 0.79 -> 0.90, performer_b 0.37 -> 0.43,
         performer_a 0.84 both).
+    shape_filter : OneEuroConfig or None
+        Filter of the lips' and brows' control points when the profile has shape models
+        (:mod:`~facepuppet.capture.shape_models`), whose readings are steadier than the rules' and whose
+        lag costs more than their jitter; None passes them unfiltered.
     frame_filter : OneEuroConfig
         Filter of the face frame (eye midpoint and eye-to-eye vector, in face units).
     frame_gain : float
@@ -154,6 +159,8 @@ class ColorTrackerConfig:
     smoothing: bool = True
     curve_filter: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=0.3, beta=1.5, d_cutoff=1.0))
     lid_filter: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=0.3, beta=10.0, d_cutoff=4.0))
+    shape_filter: OneEuroConfig | None = field(
+        default_factory=lambda: OneEuroConfig(min_cutoff=1.0, beta=10.0, d_cutoff=4.0))
     frame_filter: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=1.0, beta=6.0, d_cutoff=1.0))
     frame_gain: float = 0.3
     max_misses: int = 15
@@ -233,10 +240,15 @@ class ColorTracker:
         self._score: float | None = None
         self._count_tracked = 0
         self._shift = np.zeros(2)
+        #: (face crop, its crop matrix, the layout placed on it) of the last frame whose curves were measured:
+        #: where the profile's shape models learn (capture._calibrate).
+        self.seen: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._make_template()
         self._snakes = SnakeSolver(_SNAKE_SIDE, _UP, config.snake, fixed_ends=_SNAKE_FIXED)
         self._curve_filter = OneEuro(config.curve_filter)
         self._lid_filter = OneEuro(config.lid_filter)
+        self._shape_filter = None if config.shape_filter is None else OneEuro(config.shape_filter)
+        self._shaped = np.concatenate([FAMILIES[f] for f in sorted(self.profile.shapes)] or [np.zeros(0, int)])
         self._lids = {k: np.ascontiguousarray(v, dtype=np.float64) for k, v in profile.lids.items()}
         self._frame_filter = OneEuro(config.frame_filter)
         self._last_ms: int | None = None
@@ -289,9 +301,9 @@ class ColorTracker:
             result = self._acquire(rgb, last=self._frame or self._dropped)
         self._dropped = None
         if result is None:
-            self._frame = None
+            self._frame = self.seen = None
             return FrameFeatures.lost(len(CURVE_NAMES), len(POINT_NAMES))
-        curves, self._frame, self._corr = result[0], result[1], result[5]
+        curves, self._frame, self._corr, self.seen = result[0], result[1], result[5], result[6]
         self._count_tracked += 1
         if self._count_tracked % self.config.check_every == 0:
             self._check_score()
@@ -307,6 +319,8 @@ class ColorTracker:
         last_light = self._light
         self._curve_filter.reset()
         self._lid_filter.reset()
+        if self._shape_filter is not None:
+            self._shape_filter.reset()
         self._frame_filter.reset()
         self._pose = None
         self._mouth_offset = np.zeros(2)
@@ -494,6 +508,8 @@ class ColorTracker:
         if not dt > 0:
             self._curve_filter.reset()
             self._lid_filter.reset()
+        if self._shape_filter is not None:
+            self._shape_filter.reset()
             self._frame_filter.reset()
         # Image pixels -> face units: the inverse of the frame's similarity [[ax, -ay], [ay, ax]] is its
         # transpose over the squared unit.
@@ -504,6 +520,9 @@ class ColorTracker:
         smooth = self._curve_filter(units, dt)
         if self.profile.lids:
             smooth[_LIDS, 1:3] = self._lid_filter(units[_LIDS, 1:3], dt)
+        if len(self._shaped):
+            shaped = units[self._shaped]
+            smooth[self._shaped] = shaped if self._shape_filter is None else self._shape_filter(shaped, dt)
         (ox, oy), (ax, ay) = fr.tolist()
         return smooth @ np.array([[ax, ay], [-ay, ax]]) + np.array([ox, oy])
 
@@ -541,8 +560,9 @@ class ColorTracker:
         -------
         tuple or None
             (curves (C, 4, 2) image pixels, re-aligned face frame, eyes found, face score, the same frame,
-            the eyes' smoothed correction (4,)), or None when the crop shows no face (no skin on the cheeks
-            and little likeness to a face).
+            the eyes' smoothed correction (4,), what the curves were read on: (crop, crop matrix, layout
+            placed on the crop) or None), or None when the crop shows no face (no skin on the cheeks and
+            little likeness to a face).
         """
         px = self.config.px
         A = frame.crop_matrix(px)
@@ -580,24 +600,26 @@ class ColorTracker:
             return None
         curves = None
         if outline:
-            curves_px = self._outlines(C, crop, self._layout_px @ S_px[:, :2].T + S_px[:, 2], boxes, px * scale)
+            placed = self._layout_px @ S_px[:, :2].T + S_px[:, 2]
+            curves_px = self._outlines(C, crop, placed, boxes, px * scale)
             Ainv = cv2.invertAffineTransform(A)
             curves = curves_px @ Ainv[:, :2].T + Ainv[:, 2]                 # back to image pixels
         S = np.empty((2, 3))                                                  # S_px in face units
         S[:, :2] = S_px[:, :2]
         S[:, 2] = -S_px[:, :2] @ _CROP_ORIGIN + S_px[:, 2] / px + _CROP_ORIGIN
         measured = frame.compose(S)
-        return curves, measured, eyes is not None, score, measured, corr
+        return curves, measured, eyes is not None, score, measured, corr, (crop, A, placed) if outline else None
 
     def _outlines(self, C: np.ndarray, crop: np.ndarray, layout: np.ndarray, boxes: np.ndarray,
                   unit: float) -> np.ndarray:
         """The curves (C, 4, 2) in crop pixels: §3.2's rules from the layout placed on the crop (``layout``),
-        the lips refined as snakes, the lids by the performer's eyelid model if any. ``unit``: crop pixels per
-        face unit."""
+        the lips refined as snakes, the lids by the performer's eyelid model if any, the lips and brows by the
+        performer's shape models if any (which make the snakes needless). ``unit``: crop pixels per face
+        unit."""
         curves_px = outline_features(C, self._raw, self._value, layout, self._mouth_offset, boxes, _BLOB_PARAMS,
                                      unit, float(self.profile.mouth_reach))
         idx = _SNAKE_IDX
-        if len(idx):
+        if len(idx) and "lips" not in self.profile.shapes:
             # The snakes see the mouth rectangle and a margin (the fields are only computed there).
             h, w = C.shape
             m = _SNAKE_MARGIN
@@ -609,6 +631,8 @@ class ColorTracker:
         if self.profile.lids:
             # The performer's eyelid model reads the lids off the look of each eye (capture.lids).
             apply_lid_model(curves_px, crop, self._lids)
+        if self.profile.shapes:
+            apply_shape_models(curves_px, crop, layout, self.profile.shapes)
         return curves_px
 
     def _face_score(self, C: np.ndarray, S_px: np.ndarray) -> float:

@@ -98,6 +98,9 @@ class Profile:
         The 11-10-4 network's arrays (see :mod:`facepuppet.capture.color_net`); empty for none.
     lids : dict of str -> ndarray
         The eyelid model's arrays (see :mod:`facepuppet.capture.lids`); empty for none (the rules alone).
+    shapes : dict of str -> dict of str -> ndarray
+        Per family (``"lips"``, ``"brow_left"``, ``"brow_right"``) the arrays of its shape model (see
+        :mod:`facepuppet.capture.shape_models`); empty for none (the rules alone).
     name : str
     mouth_reach : float
         Farthest the mouth corners move from the layout's, face units (:data:`GENERIC_MOUTH_REACH` unless
@@ -111,6 +114,7 @@ class Profile:
     weights: np.ndarray = field(default_factory=lambda: DEFAULT_WEIGHTS.copy())
     net: dict = field(default_factory=dict)
     lids: dict = field(default_factory=dict)
+    shapes: dict = field(default_factory=dict)
     name: str = "generic"
     mouth_reach: float = GENERIC_MOUTH_REACH
 
@@ -138,9 +142,31 @@ def save_profile(path: str | os.PathLike, profile: Profile) -> None:
         arrays[f"net_{k}"] = np.asarray(v, dtype=np.float64)
     for k, v in profile.lids.items():
         arrays[f"lids_{k}"] = np.asarray(v, dtype=np.float64)
+    for family, model in profile.shapes.items():
+        for k, v in model.items():
+            arrays[f"shapes_{family}_{k}"] = np.asarray(v, dtype=np.float64)
     with atomic_path(path) as tmp:
         with open(tmp, "wb") as fh:
             np.savez(fh, **arrays)
+
+
+def _shapes(data: dict, path) -> dict:
+    """The shape models of a profile file's ``shapes_<family>_<array>`` keys, checked against the families."""
+    from facepuppet.capture.shape_models import FAMILIES, PATCH_SIZE
+
+    out: dict = {}
+    for key, value in data.items():
+        if key.startswith("shapes_"):
+            family, _, name = key[len("shapes_"):].rpartition("_")
+            out.setdefault(family, {})[name] = value
+    n_in = PATCH_SIZE[0] * PATCH_SIZE[1] * 3
+    for family, model in out.items():
+        n_out = len(FAMILIES.get(family, ())) * 8
+        coef, intercept = model.get("coef"), model.get("intercept")
+        if (family not in FAMILIES or coef is None or intercept is None or coef.shape != (n_out, n_in)
+                or intercept.shape != (n_out,)):
+            raise FacepuppetError(f"{path}: the profile's {family!r} shape model is damaged or of another kind")
+    return out
 
 
 def load_profile(path: str | os.PathLike) -> Profile:
@@ -178,6 +204,7 @@ def load_profile(path: str | os.PathLike) -> Profile:
             weights=data["weights"],
             net={k[4:]: v for k, v in data.items() if k.startswith("net_")},
             lids={k[5:]: v for k, v in data.items() if k.startswith("lids_")},
+            shapes=_shapes(data, path),
             name=str(data["name"]),
             # profiles written before the reach was learned have none: the generic one
             mouth_reach=float(data.get("mouth_reach", GENERIC_MOUTH_REACH)),

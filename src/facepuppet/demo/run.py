@@ -356,9 +356,7 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
         from facepuppet.capture.color_tracker import ColorTracker
         from facepuppet.capture.profile import calibrate_profile, save_profile
 
-        still = cal.spans.get("head-motion", (len(cal_frames), 0))[0]  # the profile learns from the still head
-        profile = calibrate_profile(list(cal_frames[:still]), cal_curves[:still], name="demo performer",
-                                    progress=False)
+        profile = calibrate_profile(list(cal_frames), cal_curves, name="demo performer", progress=False)
         save_profile(files["performer-profile.npz"], profile)
         t = step("train profile", t)
 
