@@ -46,10 +46,10 @@ _LUMA = np.array([0.299, 0.587, 0.114], dtype=np.float32)
 
 def _box(box, px, shape):
     h, w = shape[:2]
-    x0 = int(np.clip(round((box[0] - CROP_EXTENT[0]) * px), 0, w - 1))
-    y0 = int(np.clip(round((box[1] - CROP_EXTENT[1]) * px), 0, h - 1))
-    x1 = int(np.clip(round((box[2] - CROP_EXTENT[0]) * px), x0 + 1, w))
-    y1 = int(np.clip(round((box[3] - CROP_EXTENT[1]) * px), y0 + 1, h))
+    x0 = min(max(int(round((box[0] - CROP_EXTENT[0]) * px)), 0), w - 1)
+    y0 = min(max(int(round((box[1] - CROP_EXTENT[1]) * px)), 0), h - 1)
+    x1 = min(max(int(round((box[2] - CROP_EXTENT[0]) * px)), x0 + 1), w)
+    y1 = min(max(int(round((box[3] - CROP_EXTENT[1]) * px)), y0 + 1), h)
     return x0, y0, x1, y1
 
 

@@ -38,8 +38,7 @@ def run(args: argparse.Namespace) -> int:
                         progress=False if args.no_progress else None, model=args.model)
     print(f"facepuppet demo: tracking with {TRACKERS[config.tracker]}")
     if config.tracker == "truth":
-        print("  (no tracker is yet under the bar on the digital performer; see the colour tracker with "
-              "--tracker color, the MediaPipe backend with --tracker mediapipe)")
+        print("  (no image is analysed: the chain runs on exact curves; the colour tracker is the default)")
     result = run_demo(args.output, config)
     print(f"wrote into {args.output}/")
     for name, path in result.files.items():
