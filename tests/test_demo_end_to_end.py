@@ -91,7 +91,7 @@ def test_demo_command_says_what_tracked(tmp_path, capsys):
     assert code == 0
     assert "relative vertex error against ground truth" in out
     assert DEFAULT_TRACKER == "color"                   # the demo analyses the images it renders
-    assert "the colour tracker" in out and "TRUE" not in out and "curves 0." in out
+    assert "the colour tracker" in out and "TRUE" not in out and "px from the true ones" in out
     code = main(["demo", "-o", str(tmp_path / "t"), "--seconds", "5", "--no-preview", "--no-progress",
                  "--tracker", "truth"])
     out = capsys.readouterr().out                       # never pretend a tracker saw what it did not

@@ -96,12 +96,40 @@ def _along(ctrl: np.ndarray, d: int) -> np.ndarray:
 
 
 @nb.njit(**_JIT)
+def _select(a: np.ndarray, k: int) -> np.ndarray:
+    """A copy of the 1-D array ``a`` arranged so that ``d[k]`` is its k-th smallest value, ``d[:k]`` the k
+    smallest and ``d[k + 1:]`` the rest (Hoare's selection; what ``np.partition(a, k)`` gives, written out
+    because numba's compiles for seconds, each type again)."""
+    d = a.copy()
+    lo, hi = 0, len(d) - 1
+    while lo < hi:
+        p = d[(lo + hi) // 2]
+        i, j = lo, hi
+        while i <= j:
+            while d[i] < p:
+                i += 1
+            while d[j] > p:
+                j -= 1
+            if i <= j:
+                d[i], d[j] = d[j], d[i]
+                i += 1
+                j -= 1
+        if k <= j:
+            hi = j
+        elif k >= i:
+            lo = i
+        else:
+            break
+    return d
+
+
+@nb.njit(**_JIT)
 def _median(a: np.ndarray) -> float:
     """Median of a non-empty 1-D array: the mean of its two middle order statistics, found by selection
     (no full sort; the same value as ``0.5 * (d[(n - 1) // 2] + d[n // 2])`` of the sorted data ``d``)."""
     n = len(a)
     k = n // 2
-    d = np.partition(a, k)                      # d[k] in place, d[:k] the k smallest
+    d = _select(a, k)                           # d[k], and d[:k] the k smallest
     hi = d[k]
     lo = d[:k].max() if n % 2 == 0 else hi
     return 0.5 * (lo + hi)
@@ -115,7 +143,7 @@ def _quantile(a: np.ndarray, q: float) -> float:
     pos = q * (n - 1)
     i = min(int(pos), n - 2) if n > 1 else 0
     j = min(i + 1, n - 1)
-    d = np.partition(a, j)                      # d[j] in place, d[:j] the j smallest
+    d = _select(a, j)                           # d[j], and d[:j] the j smallest
     hi = d[j]
     lo = d[:j].max() if j > i else hi
     return lo + (pos - i) * (hi - lo)

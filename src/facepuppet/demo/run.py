@@ -94,6 +94,7 @@ default; the true curves remain a choice (``--tracker truth``), as a check of th
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import time
@@ -256,6 +257,17 @@ class TruthTracker:
         """Nothing to release."""
 
 
+@contextlib.contextmanager
+def _without_landmark_model():
+    """``$FACEPUPPET_FACE_LANDMARKER`` hidden for the duration (restored after)."""
+    saved = os.environ.pop("FACEPUPPET_FACE_LANDMARKER", None)
+    try:
+        yield
+    finally:
+        if saved is not None:
+            os.environ["FACEPUPPET_FACE_LANDMARKER"] = saved
+
+
 def relative_vertex_error(pred: np.ndarray, true: np.ndarray, neutral: np.ndarray,
                           expressive: np.ndarray | None = None) -> tuple[float, np.ndarray]:
     """Mean over expressive frames of ``||pred - true|| / ||true - neutral||``.
@@ -355,15 +367,18 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
     t = step("write videos", t)
 
     if config.tracker == "color":
-        from facepuppet.capture.color_tracker import ColorTracker
+        from facepuppet.capture.color_tracker import ColorTracker, ColorTrackerConfig
         from facepuppet.capture.profile import calibrate_profile, save_profile
 
-        profile = calibrate_profile(list(cal_frames), cal_curves, name="demo performer", progress=False)
+        # Without the optional landmark model, whatever the environment names (with it the tracker would
+        # place its first eye anchors on MediaPipe's eyes): the demo's result is the same on every machine.
+        with _without_landmark_model():
+            profile = calibrate_profile(list(cal_frames), cal_curves, name="demo performer", progress=False)
         save_profile(files["performer-profile.npz"], profile)
         t = step("train profile", t)
 
         def tracker(_curves):
-            return ColorTracker(profile)
+            return ColorTracker(profile, config=ColorTrackerConfig(landmark_acquire=False, anchor_calibration=0.0))
     elif config.tracker == "mediapipe":
         from facepuppet.capture.landmarks import MediaPipeTracker
 
