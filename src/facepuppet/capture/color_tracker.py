@@ -508,8 +508,8 @@ class ColorTracker:
         if not dt > 0:
             self._curve_filter.reset()
             self._lid_filter.reset()
-        if self._shape_filter is not None:
-            self._shape_filter.reset()
+            if self._shape_filter is not None:
+                self._shape_filter.reset()
             self._frame_filter.reset()
         # Image pixels -> face units: the inverse of the frame's similarity [[ax, -ay], [ay, ax]] is its
         # transpose over the squared unit.

@@ -87,8 +87,8 @@ Measured again on 2026-11-30 (``benchmarks/eval_demo_color.py`` and scripts on t
   frames (their curves 1.8 to 1.2 px, the error unchanged while the pose is off).
 
 Since its profile learnt the lips and each brow from the look of the face crop
-(:mod:`facepuppet.capture.shape_models`), the colour tracker is under the bar (0.414, 0.402, 0.385 on seeds
-0-2; 0.393, 0.382, 0.473 on seeds 3-5; its curves 0.8 px from the true ones instead of 1.9) and the demo's
+(:mod:`facepuppet.capture.shape_models`), the colour tracker is under the bar (0.405, 0.419, 0.411 on seeds
+0-2; 0.408, 0.374, 0.465 on seeds 3-5; its curves 1.0 px from the true ones instead of 1.9) and the demo's
 default; the true curves remain a choice (``--tracker truth``), as a check of the chain without image analysis.
 """
 
