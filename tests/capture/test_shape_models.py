@@ -165,3 +165,24 @@ def test_the_tracker_reads_the_lips_with_the_profiles_model():
         other = plain.track(frames[k], 33 * k)
         differs += not np.allclose(other.curves[LIPS], got.curves[LIPS], atol=0.5)
     assert differs > 0
+
+
+def test_a_profile_with_shape_models_keeps_the_face_frame_filtered(monkeypatch):
+    """The filters restart only when the face is (re)acquired or time does not move, not on every frame: a
+    reset put under the shape filter's condition once restarted the face frame's filter on every frame."""
+    from facepuppet.capture.color_tracker import ColorTracker
+    from facepuppet.capture.one_euro import OneEuro
+    from facepuppet.demo.performer import render_performer
+    from facepuppet.demo.script import calibration_script
+
+    frames, _ = render_performer(calibration_script(hold=0.3, transition=0.1, head_motion=0.0), size=(256, 256))
+    resets = []
+    real = OneEuro.reset
+    monkeypatch.setattr(OneEuro, "reset", lambda self: (resets.append(self), real(self))[1])
+    tracker = ColorTracker(Profile(shapes={"lips": _constant_model("lips", np.linspace(0.1, 0.9, 32))}))
+    for k in range(2):                                      # acquisition and the first filtered frame
+        assert tracker.track(frames[k], 33 * k).valid
+    resets.clear()
+    for k in range(2, 14):
+        assert tracker.track(frames[k], 33 * k).valid
+    assert sum(r is tracker._frame_filter for r in resets) <= 1, len(resets)     # 12 with the misplaced reset
