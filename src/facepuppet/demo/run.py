@@ -4,11 +4,12 @@
    each key expression held, then the neutral face with the head moving) and a performance with head motion
    (:mod:`facepuppet.demo.script`); write both videos.
 2. Track both videos (:data:`TRACKERS`): with the colour tracker, whose performer profile is first trained on
-   the calibration frames with the head still, labelled with the performer's true curves (§3.1; trained on the
-   head-motion frames too, its curves were 2.5 px from the true ones instead of 1.9 and the error 0.95
-   instead of 0.74); or with the performer's true
-   image curves standing in for a tracker (the same head-pose solve and back-projection onto the generic face
-   as every tracker, from curves that are exact).
+   every calibration frame, head sweep included, labelled with the performer's true curves (§3.1; its shape
+   models need the sweep: trained on the still frames only they gave 0.75 instead of 0.41, while without
+   shape models the sweep frames made the rules' curves worse, 2.5 px from the true ones instead of 1.9);
+   with the MediaPipe backend; or with the performer's true image curves standing in for a tracker (the
+   same head-pose solve and back-projection onto the generic face as every tracker, from curves that are
+   exact).
 3. Make the key expressions from the calibration marks (``facepuppet calibrate --marks``; the head-motion span
    becomes the performer's nuisance, which the mapping discounts), pair them with the stylised Toy
    (:mod:`facepuppet.demo.toy`) and fit the rig (``facepuppet rig``).
