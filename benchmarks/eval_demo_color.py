@@ -2,9 +2,8 @@
 
 For each seed the whole demo runs (no preview) with the colour tracker, with the MediaPipe landmark backend
 when its model is found (``--model``, ``$FACEPUPPET_FACE_LANDMARKER`` or ../shared/assets/models), and with
-the performer's true curves standing in for a tracker. The colour tracker runs as on a fresh machine,
-without the landmark model (``$FACEPUPPET_FACE_LANDMARKER`` is hidden from it; with the model it would place
-its first eye anchors on MediaPipe's eyes, which moves its error by about 0.1 either way). Printed per seed:
+the performer's true curves standing in for a tracker. The demo's colour tracker never uses the landmark
+model (with it, it would place its first eye anchors on MediaPipe's eyes). Printed per seed:
 the relative vertex error of each (0 perfect, 1 = as far off as the neutral face), the trackers' median curve
 error in pixels and the wall time of the colour run.
 
@@ -86,16 +85,11 @@ def main(argv=None) -> int:
     for seed in args.seeds:
         runs, points = {}, {}
         for tracker in trackers:
-            hidden = os.environ.pop("FACEPUPPET_FACE_LANDMARKER", None) if tracker == "color" else None
-            try:
-                with tempfile.TemporaryDirectory() as tmp:
-                    runs[tracker] = run_demo(tmp, DemoConfig(seconds=args.seconds, size=args.size, seed=seed,
-                                                             tracker=tracker, preview=False, progress=False,
-                                                             model=model if tracker == "mediapipe" else None))
-                    track = load_track(Path(tmp) / "track.npz")
-            finally:
-                if hidden is not None:
-                    os.environ["FACEPUPPET_FACE_LANDMARKER"] = hidden
+            with tempfile.TemporaryDirectory() as tmp:
+                runs[tracker] = run_demo(tmp, DemoConfig(seconds=args.seconds, size=args.size, seed=seed,
+                                                         tracker=tracker, preview=False, progress=False,
+                                                         model=model if tracker == "mediapipe" else None))
+                track = load_track(Path(tmp) / "track.npz")
             points[tracker] = track.points
             errors[tracker].append(runs[tracker].error)
         index = _family_points(track.point_names)

@@ -127,12 +127,13 @@ def _mouth_reach(layouts: np.ndarray, layout: np.ndarray, least: float) -> float
     return float(np.clip(offsets.max() + 0.03, least, 0.35))
 
 
-def calibrate(frames, curves, *, base, name: str, augment: int, seed: int, progress: bool):
+def calibrate(frames, curves, *, base, name: str, augment: int, seed: int, progress: bool, options=None):
     """See :func:`facepuppet.capture.profile.calibrate_profile`."""
     from tqdm import tqdm
 
-    from facepuppet.capture.color_tracker import ColorTracker
+    from facepuppet.capture.color_tracker import ColorTracker, ColorTrackerConfig
 
+    options = options if options is not None else ColorTrackerConfig()
     curves = np.asarray(curves, dtype=float)
     if curves.ndim != 4 or curves.shape[1:] != (len(CURVE_NAMES), 4, 2):
         raise ValueError(f"curves must be (F, {len(CURVE_NAMES)}, 4, 2), got shape {curves.shape}")
@@ -189,7 +190,7 @@ def calibrate(frames, curves, *, base, name: str, augment: int, seed: int, progr
     # The eye anchors: where the tracker's eye search lands, in face units, on the labelled frames.
     anchors = np.asarray(profile.anchors, dtype=float).copy()
     for _ in range(2):
-        tracker = ColorTracker(replace(profile, anchors=anchors))
+        tracker = ColorTracker(replace(profile, anchors=anchors), config=options)
         got = []
         for rgb, fr in crops:
             crop = _crop(rgb, fr, tracker.config.px)[0]
@@ -201,7 +202,7 @@ def calibrate(frames, curves, *, base, name: str, augment: int, seed: int, progr
         anchors[:2] = np.median(np.stack(got), axis=0)
     # Where the tracker itself puts the eyes' corners on the labelled frames (the eyelid model's patches are
     # cut there at run time), and the crops and placed layouts it reads the lips and brows on.
-    tracker = ColorTracker(replace(profile, anchors=anchors))
+    tracker = ColorTracker(replace(profile, anchors=anchors), config=options)
     tracked = []
     pairs: dict[str, tuple[list, list]] = {family: ([], []) for family in FAMILIES}
     for i, (rgb, fr) in enumerate(crops):

@@ -214,7 +214,7 @@ def load_profile(path: str | os.PathLike) -> Profile:
 
 
 def calibrate_profile(frames, curves, *, base: Profile | None = None, name: str = "performer",
-                      augment: int = 6, seed: int = 0, progress: bool = False) -> Profile:
+                      augment: int = 6, seed: int = 0, progress: bool = False, tracker=None) -> Profile:
     """Learn a performer profile from labelled frames (§3.1).
 
     Parameters
@@ -232,6 +232,9 @@ def calibrate_profile(frames, curves, *, base: Profile | None = None, name: str 
     seed : int
         Seed of the lighting variants.
     progress : bool
+    tracker : ColorTrackerConfig, optional
+        The options of the colour tracker run over the labelled frames (the eye anchors, the eyelid and shape
+        models learn where it looks); give the ones it will track with.
 
     Returns
     -------
@@ -241,7 +244,7 @@ def calibrate_profile(frames, curves, *, base: Profile | None = None, name: str 
     from facepuppet.capture import _calibrate
 
     return _calibrate.calibrate(frames, curves, base=base or default_profile(), name=name, augment=augment,
-                                seed=seed, progress=progress)
+                                seed=seed, progress=progress, options=tracker)
 
 
 def with_layout(profile: Profile, layout: np.ndarray, anchors: np.ndarray) -> Profile:

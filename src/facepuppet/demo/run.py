@@ -95,7 +95,6 @@ default; the true curves remain a choice (``--tracker truth``), as a check of th
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import os
 import time
@@ -258,17 +257,6 @@ class TruthTracker:
         """Nothing to release."""
 
 
-@contextlib.contextmanager
-def _without_landmark_model():
-    """``$FACEPUPPET_FACE_LANDMARKER`` hidden for the duration (restored after)."""
-    saved = os.environ.pop("FACEPUPPET_FACE_LANDMARKER", None)
-    try:
-        yield
-    finally:
-        if saved is not None:
-            os.environ["FACEPUPPET_FACE_LANDMARKER"] = saved
-
-
 def relative_vertex_error(pred: np.ndarray, true: np.ndarray, neutral: np.ndarray,
                           expressive: np.ndarray | None = None) -> tuple[float, np.ndarray]:
     """Mean over expressive frames of ``||pred - true|| / ||true - neutral||``.
@@ -373,13 +361,14 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
 
         # Without the optional landmark model, whatever the environment names (with it the tracker would
         # place its first eye anchors on MediaPipe's eyes): the demo's result is the same on every machine.
-        with _without_landmark_model():
-            profile = calibrate_profile(list(cal_frames), cal_curves, name="demo performer", progress=False)
+        options = ColorTrackerConfig(landmark_acquire=False, anchor_calibration=0.0)
+        profile = calibrate_profile(list(cal_frames), cal_curves, name="demo performer", progress=False,
+                                    tracker=options)
         save_profile(files["performer-profile.npz"], profile)
         t = step("train profile", t)
 
         def tracker(_curves):
-            return ColorTracker(profile, config=ColorTrackerConfig(landmark_acquire=False, anchor_calibration=0.0))
+            return ColorTracker(profile, config=options)
     elif config.tracker == "mediapipe":
         from facepuppet.capture.landmarks import MediaPipeTracker
 

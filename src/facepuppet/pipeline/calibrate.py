@@ -143,8 +143,8 @@ class PerformerExamples:
         Each coordinate's noise scale (:func:`coordinate_noise`), from the blendshape scores (``--auto``) or
         the key expressions' blends (marks); None when there were too few frames or from a camera.
     nuisance : (K, P, D) float or None
-        Feature points whose motion away from the neutral face is no expression: the marked ``head-motion``
-        frames (marks), or each frame's points less what its blendshape scores explain (``--auto``).
+        Feature points whose motion away from the neutral face is no expression: the frames of the marked
+        ``head-motion`` spans (marks); None without spans, with ``--auto`` and from a camera.
     """
 
     neutral: np.ndarray
