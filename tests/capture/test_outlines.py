@@ -6,7 +6,18 @@ import pytest
 
 from facepuppet.capture.blobs import close_mask, ellipse_kernel, label8, open_mask
 from facepuppet.capture.color import DEFAULT_WEIGHTS, LipHue, contrast, lip_hue_table, transform
-from facepuppet.capture.outlines import _hsv, _median, _quantile, eye_centres, feature_intensity
+from facepuppet.capture.curves import CURVE_NAMES
+from facepuppet.capture.outlines import (
+    OUTLINE_PARTS,
+    _hsv,
+    _interp,
+    _median,
+    _order,
+    _quantile,
+    eye_centres,
+    feature_intensity,
+    outline_features,
+)
 
 
 @pytest.mark.parametrize("size", range(1, 10))
@@ -49,6 +60,33 @@ def test_median_and_quantile_by_selection_equal_the_sorted_forms(dtype):
                 i = min(int(pos), max(n - 2, 0))
                 assert _quantile(a, q) == float(d[i]) + (pos - i) * float(d[min(i + 1, n - 1)] - d[i])
                 assert np.isclose(_quantile(a, q), np.quantile(a.astype(np.float64), q))
+
+
+def test_interp_and_order_equal_numpys():
+    rng = np.random.default_rng(8)
+    for n in range(2, 40):
+        xp = np.cumsum(rng.uniform(0.1, 2.0, n))
+        fp = rng.normal(size=n)
+        # Inside, outside, and on the sample points themselves.
+        x = np.concatenate([rng.uniform(xp[0] - 3, xp[-1] + 3, 50), xp, [xp[0] - 1, xp[-1] + 1]])
+        assert np.array_equal(_interp(x, xp, fp), np.interp(x, xp, fp))
+        a = rng.integers(0, 5, n).astype(float) + rng.choice([0.0, 0.5], n)      # ties too
+        assert np.array_equal(_order(a), np.argsort(a, kind="stable"))
+
+
+def test_outline_parts_not_read_keep_the_layout():
+    """Each part moves only its own curves; the parts not asked for keep the layout's."""
+    C, raw, value, layout, offset, boxes, params, unit, reach = _scene_inputs()
+    every = outline_features(C, raw, value, layout, offset, boxes, params, unit, reach)
+    for part, curves in (("eyes", _EYE_CURVES), ("brows", _BROW_CURVES), ("mouth", _LIP_CURVES)):
+        got = outline_features(C, raw, value, layout, offset, boxes, params, unit, reach, parts=(part,))
+        mine = np.isin(np.arange(len(layout)), curves)
+        np.testing.assert_array_equal(got[mine], every[mine])
+        np.testing.assert_array_equal(got[~mine], layout[~mine])
+        assert not np.array_equal(got[mine], layout[mine]), part               # the scene moves every part
+    assert OUTLINE_PARTS == ("eyes", "brows", "mouth")
+    with pytest.raises(ValueError, match=r"unknown outline parts \['nose'\]"):
+        outline_features(C, raw, value, layout, offset, boxes, params, unit, reach, parts=("eyes", "nose"))
 
 
 def test_hsv_is_opencvs_8bit_conversion():
@@ -157,6 +195,35 @@ def _scene():
     t = ColorTracker()
     w, h = t._size
     return t._layout_px.copy(), t._box_table.copy(), _BLOB_PARAMS, (h, w), t.config.px
+
+
+_EYE_CURVES = [CURVE_NAMES.index(n) for n in CURVE_NAMES if n.startswith("eye_")]
+_BROW_CURVES = [CURVE_NAMES.index(n) for n in CURVE_NAMES if n.startswith("brow_")]
+_LIP_CURVES = [CURVE_NAMES.index(n) for n in CURVE_NAMES if n.startswith("lip_")]
+
+
+def _scene_inputs():
+    """:func:`outline_features`' arguments for a drawn face whose features all sit a few pixels off the
+    layout: dark eyes and lips in C, brow bands in Eq. 1's intensity and the HSV value."""
+    layout, boxes, params, (h, w), px = _scene()
+    C = np.zeros((h, w), np.float32)
+    raw = np.zeros((h, w), np.float32)
+    value = np.full((h, w), 200, np.uint8)
+    for curves in (_EYE_CURVES[:2], _EYE_CURVES[2:]):
+        pts = layout[curves].reshape(-1, 2)
+        (xa, ya), (xb, yb) = pts.min(axis=0), pts.max(axis=0)
+        cv2.ellipse(C, (int((xa + xb) / 2), int((ya + yb) / 2) + 3), (int((xb - xa) / 2), int(yb - ya) + 3),
+                    0, 0, 360, 1.0, -1)
+    for c in _BROW_CURVES:
+        xa, xb = int(layout[c, :, 0].min()), int(layout[c, :, 0].max())
+        y = int(layout[c, :, 1].mean()) - 4
+        cv2.rectangle(raw, (xa, y), (xb, y + 6), 1.0, -1)
+        cv2.rectangle(value, (xa, y), (xb, y + 6), 120, -1)
+    pts = layout[_LIP_CURVES].reshape(-1, 2)
+    (xa, ya), (xb, yb) = pts.min(axis=0), pts.max(axis=0)
+    cv2.ellipse(C, (int((xa + xb) / 2), int((ya + yb) / 2) + 3), (int((xb - xa) / 2) + 2, int(yb - ya) + 2),
+                0, 0, 360, 1.0, -1)
+    return C, raw, value, layout, np.zeros(2), boxes, params, px, 0.12
 
 
 def test_brow_curve_tilts_with_a_slanted_brow():

@@ -186,3 +186,27 @@ def test_a_profile_with_shape_models_keeps_the_face_frame_filtered(monkeypatch):
     for k in range(2, 14):
         assert tracker.track(frames[k], 33 * k).valid
     assert sum(r is tracker._frame_filter for r in resets) <= 1, len(resets)     # 12 with the misplaced reset
+
+
+def test_the_rules_a_profiles_models_replace_are_not_run():
+    """With models of the lips and both brows the tracker reads only the eyes by §3.2's rules (and no snakes);
+    its curves are those it gives when every rule runs, since the models replace the rest."""
+    from facepuppet.capture.color_tracker import ColorTracker, ColorTrackerConfig
+    from facepuppet.capture.outlines import OUTLINE_PARTS
+    from facepuppet.demo.performer import render_performer
+    from facepuppet.demo.script import calibration_script
+
+    frames, _ = render_performer(calibration_script(hold=0.3, transition=0.1, head_motion=0.0), size=(256, 256))
+    shapes = {f: _constant_model(f, np.linspace(0.1, 0.9, 8 * len(idx))) for f, idx in FAMILIES.items()}
+    lips_only = ColorTracker(Profile(shapes={"lips": shapes["lips"]}))
+    assert lips_only._parts == ("eyes", "brows")
+    fast = ColorTracker(Profile(shapes=shapes))
+    assert fast._parts == ("eyes",)
+    every = ColorTracker(Profile(shapes=shapes))
+    every._parts = OUTLINE_PARTS
+    for k in range(0, 40, 3):
+        a, b = fast.track(frames[k], 33 * k), every.track(frames[k], 33 * k)
+        assert a.valid and b.valid
+        np.testing.assert_array_equal(a.curves, b.curves)
+    with pytest.raises(ValueError, match=r"outline_parts: unknown \['nose'\]"):
+        ColorTrackerConfig(outline_parts=("eyes", "nose"))

@@ -15,9 +15,10 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
+from facepuppet.capture._jit import INNER, KERNEL
+
 __all__ = ["BlobConfig", "Blob", "grow_blob", "column_profile", "blob_kernel", "ellipse_kernel"]
 
-_JIT = {"cache": True, "nogil": True}
 
 
 @dataclass(frozen=True)
@@ -69,7 +70,7 @@ class Blob:
     centroid: np.ndarray
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INNER)
 def ellipse_kernel(size: int) -> np.ndarray:
     """OpenCV's elliptic structuring element of ``size`` x ``size`` (``cv2.MORPH_ELLIPSE``), (size, size) uint8."""
     k = np.zeros((size, size), np.uint8)
@@ -86,7 +87,7 @@ def ellipse_kernel(size: int) -> np.ndarray:
     return k
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INNER)
 def _morph(m: np.ndarray, kernel: np.ndarray, dilate: bool) -> np.ndarray:
     """Binary dilation (or erosion) of ``m`` by a centred kernel; pixels outside the image are ignored."""
     h, w = m.shape
@@ -116,7 +117,7 @@ def _morph(m: np.ndarray, kernel: np.ndarray, dilate: bool) -> np.ndarray:
     return out
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INNER)
 def _cross(m: np.ndarray, dilate: bool) -> np.ndarray:
     """:func:`_morph` by the 3 x 3 elliptic element, a cross: each pixel with its four neighbours (those inside
     the image), without the padded copy (the blobs' closings and the mouth opening's opening, every frame)."""
@@ -133,7 +134,7 @@ def _cross(m: np.ndarray, dilate: bool) -> np.ndarray:
     return out
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INNER)
 def close_mask(m: np.ndarray, size: int) -> np.ndarray:
     """Closing (dilation then erosion) by the elliptic element of ``size``; ``size <= 1`` returns ``m``."""
     if size <= 1:
@@ -144,7 +145,7 @@ def close_mask(m: np.ndarray, size: int) -> np.ndarray:
     return _morph(_morph(m, k, True), k, False)
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INNER)
 def open_mask(m: np.ndarray, size: int) -> np.ndarray:
     """Opening (erosion then dilation) by the elliptic element of ``size``; ``size <= 1`` returns ``m``."""
     if size <= 1:
@@ -155,7 +156,7 @@ def open_mask(m: np.ndarray, size: int) -> np.ndarray:
     return _morph(_morph(m, k, False), k, True)
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INNER)
 def _root(parent: np.ndarray, k: int) -> int:
     """The representative of provisional label ``k`` (path halving)."""
     while parent[k] != k:
@@ -164,7 +165,7 @@ def _root(parent: np.ndarray, k: int) -> int:
     return k
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INNER)
 def label8(m: np.ndarray) -> tuple[np.ndarray, int]:
     """8-connected components of a binary mask: labels (H, W) int32 (0 background, 1.. in raster order), count.
 
@@ -213,7 +214,7 @@ def label8(m: np.ndarray) -> tuple[np.ndarray, int]:
     return labels, count
 
 
-@nb.njit(**_JIT)
+@nb.njit(**KERNEL)
 def blob_kernel(intensity: np.ndarray, params: np.ndarray, near_x: float, near_y: float, near_r: float,
                 min_area: int):
     """The blob of :func:`grow_blob` and its column profile, in one compiled call.

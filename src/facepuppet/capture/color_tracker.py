@@ -36,6 +36,7 @@ from facepuppet.capture.one_euro import OneEuro, OneEuroConfig
 from facepuppet.capture.outlines import (
     BLOB_KINDS,
     BOX_NAMES,
+    OUTLINE_PARTS,
     eye_centres,
     feature_intensity,
     move_boxes,
@@ -43,6 +44,7 @@ from facepuppet.capture.outlines import (
     skin_fraction,
 )
 from facepuppet.capture.pose import STABLE_FEATURES, estimate_pose, points_in_head, pose_point_index
+from facepuppet.capture.precompile import wait_pending
 from facepuppet.capture.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
 from facepuppet.capture.shape_models import FAMILIES, apply_shape_models
 from facepuppet.capture.snakes import LOWER, UPPER, SnakeConfig, SnakeSolver, snake_fields
@@ -143,6 +145,10 @@ class ColorTrackerConfig:
         Bounds of the calibration's scale change of the layout.
     anchor_noise_floor : float
         Face units an eye anchor must move by for the calibration to move the anchors at all.
+    outline_parts : tuple of str
+        Which features §3.2's rules read (:data:`~facepuppet.capture.outlines.OUTLINE_PARTS`); the others keep
+        the layout's curves. The rules of the lips and of the brows are skipped anyway where the profile's
+        shape models read them (their curves would be replaced), and the snakes go with the lips' rules.
     resize_cost : float
         When the face was just lost, candidates for finding it again are compared by their likeness to a face
         minus this times the absolute log ratio of their size to the lost frame's (a doubling costs 0.21): a
@@ -178,6 +184,12 @@ class ColorTrackerConfig:
     anchor_scale_limits: tuple[float, float] = (0.85, 1.15)
     anchor_noise_floor: float = 0.03
     resize_cost: float = 0.3
+    outline_parts: tuple[str, ...] = OUTLINE_PARTS
+
+    def __post_init__(self):
+        unknown = set(self.outline_parts) - set(OUTLINE_PARTS)
+        if unknown:
+            raise ValueError(f"outline_parts: unknown {sorted(unknown)}; known: {', '.join(OUTLINE_PARTS)}")
 
 
 def _box_px(box, px):
@@ -207,6 +219,7 @@ class ColorTracker:
             profile = load_profile(profile)
         self.profile = profile
         self.config = config
+        wait_pending()          # kernels being compiled in the background are not compiled here again
         self._hue = lip_hue_table(profile.lip_hue)
         self._weights = np.asarray(profile.weights, dtype=np.float32)
         self._net = None
@@ -249,6 +262,11 @@ class ColorTracker:
         self._lid_filter = OneEuro(config.lid_filter)
         self._shape_filter = None if config.shape_filter is None else OneEuro(config.shape_filter)
         self._shaped = np.concatenate([FAMILIES[f] for f in sorted(self.profile.shapes)] or [np.zeros(0, int)])
+        # The rules whose curves the shape models replace are not run.
+        shaped = set(self.profile.shapes)
+        replaced = {"mouth"} if "lips" in shaped else set()
+        replaced |= {"brows"} if {"brow_left", "brow_right"} <= shaped else set()
+        self._parts = tuple(p for p in config.outline_parts if p not in replaced)
         self._lids = {k: np.ascontiguousarray(v, dtype=np.float64) for k, v in profile.lids.items()}
         self._frame_filter = OneEuro(config.frame_filter)
         self._last_ms: int | None = None
@@ -617,9 +635,9 @@ class ColorTracker:
         performer's shape models if any (which make the snakes needless). ``unit``: crop pixels per face
         unit."""
         curves_px = outline_features(C, self._raw, self._value, layout, self._mouth_offset, boxes, _BLOB_PARAMS,
-                                     unit, float(self.profile.mouth_reach))
+                                     unit, float(self.profile.mouth_reach), parts=self._parts)
         idx = _SNAKE_IDX
-        if len(idx) and "lips" not in self.profile.shapes:
+        if len(idx) and "mouth" in self._parts:
             # The snakes see the mouth rectangle and a margin (the fields are only computed there).
             h, w = C.shape
             m = _SNAKE_MARGIN

@@ -22,6 +22,7 @@ import cv2
 import numba as nb
 import numpy as np
 
+from facepuppet.capture._jit import KERNEL
 from facepuppet.capture.curves import CURVE_NAMES
 
 __all__ = ["PATCH_SIZE", "PATCH_SPAN", "EYES", "eye_geometry", "eye_patch", "lid_offsets", "fit_lid_model",
@@ -63,7 +64,7 @@ def eye_patch(rgb: np.ndarray, centre: np.ndarray, span: float, mirror: bool) ->
     return _normalise(cv2.resize(p, PATCH_SIZE, interpolation=cv2.INTER_AREA), mirror)
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(**KERNEL)
 def _geometry(curves: np.ndarray, upper: int) -> np.ndarray:
     """(m_x, m_y, s, n_x, n_y) of the eye whose upper lid is curve ``upper`` (module docstring)."""
     x0, y0 = curves[upper, 0, 0], curves[upper, 0, 1]
@@ -78,7 +79,7 @@ def _geometry(curves: np.ndarray, upper: int) -> np.ndarray:
     return out
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(**KERNEL)
 def _normalise(p: np.ndarray, mirror: bool) -> np.ndarray:
     """Grey, mirrored if asked, zero mean and unit variance (+1 grey level): (h, w, 3) uint8 -> (h * w,)."""
     h, w = p.shape[0], p.shape[1]
@@ -94,7 +95,7 @@ def _normalise(p: np.ndarray, mirror: bool) -> np.ndarray:
     return out
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(**KERNEL)
 def _move_lids(curves: np.ndarray, up: int, lo: int, g: np.ndarray, x: np.ndarray, W: np.ndarray, b: np.ndarray,
                min_gap: float) -> None:
     """Predict the two offsets from patch ``x`` and move the lids' middle control points there (in place)."""

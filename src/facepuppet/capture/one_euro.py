@@ -17,6 +17,8 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
+from facepuppet.capture._jit import KERNEL
+
 __all__ = ["OneEuroConfig", "OneEuro"]
 
 
@@ -91,7 +93,7 @@ class OneEuro:
         return self._x.copy()
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(**KERNEL)
 def _step(x: np.ndarray, last: np.ndarray, velocity_last: np.ndarray, dt: float, scale: float, min_cutoff: float,
           beta: float, d_cutoff: float):
     """One step for (N, D) points: the filtered points and their filtered velocities (see :class:`OneEuro`)."""

@@ -16,8 +16,9 @@ column profile:
   pixels or pixels the blob leaves out between its top and bottom, as teeth), or the lip crease when closed.
 
 Each curve keeps its shape and moves by one robust number (the median shift of its middle control points
-over the central samples), so a noisy column cannot bend it. Everything here is compiled with numba: it is
-the tracker's per-frame work, a few hundred small steps that cost more to call than to do.
+over the central samples), so a noisy column cannot bend it. The work is compiled with numba, one kernel per
+feature (eyes, brows, mouth; :mod:`facepuppet.capture._jit`): it is the tracker's per-frame work, a few hundred
+small steps that cost more to call from Python than to do.
 
 Conventions: crop pixels, x right, y down; curves (C, 4, 2) control points in :data:`CURVE_NAMES` order;
 rectangles (x0, y0, x1, y1) inclusive-exclusive, in the order of :data:`BOX_NAMES`.
@@ -28,18 +29,19 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from facepuppet.capture._jit import INNER, KERNEL
 from facepuppet.capture.blobs import blob_kernel, label8, open_mask
 from facepuppet.capture.curves import CURVE_NAMES, bernstein
 
-__all__ = ["BOX_NAMES", "BLOB_KINDS", "eye_centres", "feature_intensity", "move_boxes", "outline_features",
-           "skin_fraction"]
-
-_JIT = {"cache": True, "nogil": True}
+__all__ = ["BOX_NAMES", "BLOB_KINDS", "OUTLINE_PARTS", "eye_centres", "feature_intensity", "move_boxes",
+           "outline_features", "skin_fraction"]
 
 #: Rectangles :func:`outline_features` reads, in the order of its ``boxes`` argument.
 BOX_NAMES = ("eye_right", "eye_left", "brow_right", "brow_left", "mouth", "cheek_left", "cheek_right")
 #: Blob options, in the order of its ``blob_params`` rows.
 BLOB_KINDS = ("eye", "brow", "mouth")
+#: The parts :func:`outline_features` reads, each one compiled kernel.
+OUTLINE_PARTS = ("eyes", "brows", "mouth")
 
 _I = {n: i for i, n in enumerate(CURVE_NAMES)}
 _BROW = np.array([_I["brow_right"], _I["brow_left"]])
@@ -85,7 +87,7 @@ _MID = _B[:, 1] + _B[:, 2]                              # how much a common shif
 _CENTRAL = np.flatnonzero(_MID >= 0.6)                  # samples the middle control points move most
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INNER)
 def _along(ctrl: np.ndarray, d: int) -> np.ndarray:
     """Coordinate ``d`` of the curve's K samples, ``B @ ctrl[:, d]``."""
     out = np.zeros(_K)
@@ -95,7 +97,7 @@ def _along(ctrl: np.ndarray, d: int) -> np.ndarray:
     return out
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INNER)
 def _select(a: np.ndarray, k: int) -> np.ndarray:
     """A copy of the 1-D array ``a`` arranged so that ``d[k]`` is its k-th smallest value, ``d[:k]`` the k
     smallest and ``d[k + 1:]`` the rest (Hoare's selection; what ``np.partition(a, k)`` gives, written out
@@ -123,7 +125,7 @@ def _select(a: np.ndarray, k: int) -> np.ndarray:
     return d
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INNER)
 def _median(a: np.ndarray) -> float:
     """Median of a non-empty 1-D array: the mean of its two middle order statistics, found by selection
     (no full sort; the same value as ``0.5 * (d[(n - 1) // 2] + d[n // 2])`` of the sorted data ``d``)."""
@@ -135,7 +137,7 @@ def _median(a: np.ndarray) -> float:
     return 0.5 * (lo + hi)
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INNER)
 def _quantile(a: np.ndarray, q: float) -> float:
     """Quantile ``q`` in [0, 1] of a non-empty 1-D array, interpolated linearly between its two neighbouring
     order statistics (numpy's default rule), which are found by selection (no full sort)."""
@@ -149,7 +151,48 @@ def _quantile(a: np.ndarray, q: float) -> float:
     return lo + (pos - i) * (hi - lo)
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INNER)
+def _interp(x: np.ndarray, xp: np.ndarray, fp: np.ndarray) -> np.ndarray:
+    """``np.interp(x, xp, fp)`` for increasing ``xp`` (same values: the end values outside, ``fp[j]`` where
+    ``x == xp[j]``, else the line through the neighbours), written out because numba's compiles for seconds."""
+    n = len(xp)
+    out = np.empty(len(x))
+    for i in range(len(x)):
+        v = x[i]
+        if v < xp[0]:
+            out[i] = fp[0]
+        elif v >= xp[n - 1]:
+            out[i] = fp[n - 1]
+        else:
+            lo, hi = 0, n - 1                   # xp[lo] <= v < xp[hi]
+            while hi - lo > 1:
+                mid = (lo + hi) // 2
+                if xp[mid] <= v:
+                    lo = mid
+                else:
+                    hi = mid
+            if xp[lo] == v:
+                out[i] = fp[lo]
+            else:
+                out[i] = (fp[lo + 1] - fp[lo]) / (xp[lo + 1] - xp[lo]) * (v - xp[lo]) + fp[lo]
+    return out
+
+
+@nb.njit(**INNER)
+def _order(a: np.ndarray) -> np.ndarray:
+    """Indices that sort the short 1-D array ``a`` (insertion sort, stable)."""
+    idx = np.arange(len(a))
+    for i in range(1, len(a)):
+        k = idx[i]
+        j = i - 1
+        while j >= 0 and a[idx[j]] > a[k]:
+            idx[j + 1] = idx[j]
+            j -= 1
+        idx[j + 1] = k
+    return idx
+
+
+@nb.njit(**INNER)
 def _mid_shift(ctrl: np.ndarray, y: np.ndarray) -> float:
     """The common vertical shift of the middle control points that best moves the curve onto the profile ``y``
     (median over the central samples)."""
@@ -161,7 +204,7 @@ def _mid_shift(ctrl: np.ndarray, y: np.ndarray) -> float:
     return _median(d)
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INNER)
 def _sample_profile(ctrl: np.ndarray, cols: np.ndarray, prof: np.ndarray, x0: int):
     """A blob profile (per rectangle column, plus ``y0``) read at the x of the curve's K samples.
 
@@ -175,10 +218,10 @@ def _sample_profile(ctrl: np.ndarray, cols: np.ndarray, prof: np.ndarray, x0: in
     for i in range(len(xs)):
         pf[i] = prof[xs[i]]
     x_samples = _along(ctrl, 0) - x0 - 0.5
-    return True, np.interp(x_samples, xf, pf)
+    return True, _interp(x_samples, xf, pf)
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INNER)
 def _lash(C: np.ndarray, mask: np.ndarray, cols: np.ndarray, top: np.ndarray, unit: float) -> float:
     """Thickness (rows) of the lash line at the top of an eye blob, where the white of the eye shows below it.
 
@@ -203,7 +246,7 @@ def _lash(C: np.ndarray, mask: np.ndarray, cols: np.ndarray, top: np.ndarray, un
     return _median(runs[:n]) if n >= 3 else 0.0
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INNER)
 def _top_of_boxes(img: np.ndarray, boxes: np.ndarray, floor: float):
     """The brightest pixel of ``img`` in the rectangles, and the brightest 3 x 3 mean centred in them (each
     at least ``floor``)."""
@@ -222,7 +265,7 @@ def _top_of_boxes(img: np.ndarray, boxes: np.ndarray, floor: float):
     return top, peak
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INNER)
 def _median_of_boxes(img: np.ndarray, boxes: np.ndarray) -> float:
     """Median of the pixels of several rectangles of ``img`` together."""
     total = 0
@@ -238,7 +281,7 @@ def _median_of_boxes(img: np.ndarray, boxes: np.ndarray) -> float:
     return _median(vals) if n else 0.0
 
 
-@nb.njit(**_JIT)
+@nb.njit(**KERNEL)
 def _eyes(C: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: np.ndarray, params: np.ndarray,
           unit: float) -> None:
     for side in range(2):
@@ -264,7 +307,7 @@ def _eyes(C: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: np.ndarray,
                 out[up, j, 1] = min(out[up, j, 1] + d, out[lo, j, 1] - 0.02 * unit)
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INNER)
 def _line_fit(x: np.ndarray, y: np.ndarray):
     """Robust line y ≈ a + b (x - mean x) (Theil-Sen: the median of the pairwise slopes, then the median
     offset); returns (a, b, mean x)."""
@@ -281,7 +324,7 @@ def _line_fit(x: np.ndarray, y: np.ndarray):
     return _median(y - b * (x - xm)), b, xm
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INNER)
 def _brow_tilt(b: float) -> float:
     """The tilt a brow curve takes from a measured edge slope ``b`` against the layout's: small tilts are the
     edge's noise (the layout's slant holds), so only the excess over ``_BROW_TILT_FLOOR`` counts, at most
@@ -289,7 +332,7 @@ def _brow_tilt(b: float) -> float:
     return min(max(b - min(max(b, -_BROW_TILT_FLOOR), _BROW_TILT_FLOOR), -_BROW_TILT), _BROW_TILT)
 
 
-@nb.njit(**_JIT)
+@nb.njit(**KERNEL)
 def _brows(raw: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: np.ndarray, params: np.ndarray,
            unit: float) -> None:
     for side in range(2):
@@ -330,7 +373,7 @@ def _brows(raw: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: np.ndarr
             out[c, j, 1] += a + b * (out[c, j, 0] - xm)
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INNER)
 def _closed_columns(value: np.ndarray, x0: int, x1: int, y0: int, y1: int) -> np.ndarray:
     """``value`` over rows y0..y1 and columns x0..x1 closed along the columns by three pixels (the largest of
     each pixel and its neighbours above and below, then the smallest of those, as OpenCV's closing by a 3 x 1
@@ -352,7 +395,9 @@ def _closed_columns(value: np.ndarray, x0: int, x1: int, y0: int, y1: int) -> np
     out = np.empty((y1 - y0, n))
     for y in range(y0, y1):
         o = out[y - y0]
-        o[:] = grown[y - ga]
+        g0 = grown[y - ga]
+        for x in range(n):
+            o[x] = g0[x]
         for q in (y - 1, y + 1):
             if ga <= q < gb:
                 g = grown[q - ga]
@@ -361,7 +406,7 @@ def _closed_columns(value: np.ndarray, x0: int, x1: int, y0: int, y1: int) -> np
     return out
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INNER)
 def _median_level(block: np.ndarray) -> float:
     """Median of a block of whole numbers in 0..255 (8-bit levels), by counting."""
     counts = np.zeros(256, np.int64)
@@ -382,7 +427,7 @@ def _median_level(block: np.ndarray) -> float:
     return float(lo_v)
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INNER)
 def _upper_edge(value: np.ndarray, prior: np.ndarray, x0: int, x1: int, y0: int, y1: int, box: np.ndarray,
                 unit: float):
     """The brow's upper edge in columns x0..x1: bright forehead above, darker brow below, on the closed value
@@ -435,7 +480,8 @@ def _upper_edge(value: np.ndarray, prior: np.ndarray, x0: int, x1: int, y0: int,
                 best, arg = acc[i + 1], i + 1
             nxt[i] = best + R[i, x]
             back[i, x] = arg
-        acc[:] = nxt
+        for i in range(m):
+            acc[i] = nxt[i]
     rows = np.empty(n)
     contrast = np.empty(n)
     i = int(np.argmax(acc))
@@ -452,7 +498,7 @@ def _upper_edge(value: np.ndarray, prior: np.ndarray, x0: int, x1: int, y0: int,
     return rows, contrast
 
 
-@nb.njit(**_JIT)
+@nb.njit(**KERNEL)
 def _brow_edges(value: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: np.ndarray, unit: float) -> None:
     """Each brow curve onto the brow's upper edge on the HSV value, its ends out to the edge's extent.
 
@@ -477,9 +523,9 @@ def _brow_edges(value: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: n
         # The blob's curve, row per column (level beyond its ends).
         px = _along(out[c], 0)
         py = _along(out[c], 1)
-        order = np.argsort(px)
+        order = _order(px)
         cols = np.arange(xa, xb) + 0.5
-        prior = np.interp(cols, px[order], py[order])
+        prior = _interp(cols, px[order], py[order])
         rows, contrast = _upper_edge(value, prior, xa, xb, y0, y1, boxes[2 + side], unit)
         # The contrast averaged over a few columns (the extent's noise).
         sm = np.empty(n)
@@ -523,18 +569,18 @@ def _brow_edges(value: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: n
         inside = (xs >= cols[i0]) & (xs <= cols[i1])
         if inside.sum() < 4:
             continue
-        r = np.interp(xs, cols, rows + _BROW_DEPTH * unit) - _along(curve, 1)
+        r = _interp(xs, cols, rows + _BROW_DEPTH * unit) - _along(curve, 1)
         b = _line_fit(xs[inside], r[inside])[1]
         b = _brow_tilt(b)
         xm = xs.mean()
         a = _median((r - b * (xs - xm))[inside])
         a = min(max(a, -_BROW_SHIFT * unit), _BROW_SHIFT * unit)
         for j in range(4):
-            curve[j, 1] += a + b * (curve[j, 0] - xm)
-        out[c] = curve
+            out[c, j, 0] = curve[j, 0]
+            out[c, j, 1] = curve[j, 1] + (a + b * (curve[j, 0] - xm))
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INNER)
 def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.ndarray, value: np.ndarray,
              skin: float, unit: float):
     """Top and bottom of the mouth opening per column of the mouth rectangle (the lip crease if closed).
@@ -597,7 +643,7 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
     return otop, obot
 
 
-@nb.njit(**_JIT)
+@nb.njit(**KERNEL)
 def _mouth(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset: np.ndarray, out: np.ndarray,
            boxes: np.ndarray, params: np.ndarray, unit: float, reach: float) -> None:
     """Lips from the mouth blob (§3.2, Fig. 3): corners and outer lips from its outline, inner lips from the
@@ -607,8 +653,9 @@ def _mouth(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset: np.ndar
     x0, y0, x1, y1 = boxes[4]
     lay = layout.copy()
     for c in _LIPS:
-        lay[c, :, 0] += offset[0]
-        lay[c, :, 1] += offset[1]
+        for j in range(4):
+            lay[c, j, 0] += offset[0]
+            lay[c, j, 1] += offset[1]
     uo, lo, ui, li = _LIPS[0], _LIPS[1], _LIPS[2], _LIPS[3]
     cx = 0.125 * (lay[ui, :, 0].sum() + lay[li, :, 0].sum())
     cy = 0.125 * (lay[ui, :, 1].sum() + lay[li, :, 1].sum())
@@ -639,7 +686,8 @@ def _mouth(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset: np.ndar
     itop, ibot = _opening(mask, cols, top, bottom, value[y0:y1, x0:x1], skin, unit)
     # Outer lips: the blob's outline; inner lips: the opening inside it (bounds: fraction of the unit).
     profiles = np.empty((4, len(top)), np.float32)
-    profiles[0], profiles[1], profiles[2], profiles[3] = top, bottom, itop, ibot
+    for x in range(len(top)):
+        profiles[0, x], profiles[1, x], profiles[2, x], profiles[3, x] = top[x], bottom[x], itop[x], ibot[x]
     for i in range(4):
         c = _LIPS[i]
         ok, y = _sample_profile(out[c], cols, profiles[i] + y0, x0)
@@ -655,11 +703,13 @@ def _mouth(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset: np.ndar
         out[lo, j, 1] = max(out[lo, j, 1], out[li, j, 1] + lay[lo, j, 1] - lay[li, j, 1])
 
 
-@nb.njit(**_JIT)
 def outline_features(C: np.ndarray, raw: np.ndarray, value: np.ndarray, layout: np.ndarray,
                      mouth_offset: np.ndarray, boxes: np.ndarray, blob_params: np.ndarray,
-                     unit: float, mouth_reach: float = 0.12) -> np.ndarray:
+                     unit: float, mouth_reach: float = 0.12, parts: tuple[str, ...] = OUTLINE_PARTS) -> np.ndarray:
     """The layout moved onto each feature's blob, within plausible bounds (§3.2).
+
+    Each part is one compiled kernel called from here (a few calls per frame cost microseconds; one kernel
+    holding them all took numba 15 s longer to compile, since a caller re-optimises its callees' code).
 
     Parameters
     ----------
@@ -681,21 +731,29 @@ def outline_features(C: np.ndarray, raw: np.ndarray, value: np.ndarray, layout: 
         Crop pixels per face unit.
     mouth_reach : float
         Farthest the mouth corners move from the layout's, face units (the profile's ``mouth_reach``).
+    parts : tuple of str
+        Which of :data:`OUTLINE_PARTS` to read (all by default); the others keep the layout's curves.
 
     Returns
     -------
     (C, 4, 2) float64
         The curves; a feature whose blob is missing keeps its layout curve (the nostrils always do).
     """
+    unknown = set(parts) - set(OUTLINE_PARTS)
+    if unknown:
+        raise ValueError(f"unknown outline parts {sorted(unknown)}; known: {', '.join(OUTLINE_PARTS)}")
     out = layout.copy()
-    _eyes(C, layout, out, boxes, blob_params[0], unit)
-    _brows(raw, layout, out, boxes, blob_params[1], unit)
-    _brow_edges(value, layout, out, boxes, unit)
-    _mouth(C, value, layout, mouth_offset, out, boxes, blob_params[2], unit, mouth_reach)
+    if "eyes" in parts:
+        _eyes(C, layout, out, boxes, blob_params[0], unit)
+    if "brows" in parts:
+        _brows(raw, layout, out, boxes, blob_params[1], unit)
+        _brow_edges(value, layout, out, boxes, unit)
+    if "mouth" in parts:
+        _mouth(C, value, layout, mouth_offset, out, boxes, blob_params[2], unit, mouth_reach)
     return out
 
 
-@nb.njit(**_JIT)
+@nb.njit(**KERNEL)
 def move_boxes(boxes: np.ndarray, moved: np.ndarray, mouth: int, shift: np.ndarray, mouth_offset: np.ndarray,
                w: int, h: int) -> np.ndarray:
     """Rectangles (N, 4) of a frame: the ``moved`` ones by ``shift`` (the mouth, row ``mouth``, also by
@@ -721,7 +779,7 @@ def move_boxes(boxes: np.ndarray, moved: np.ndarray, mouth: int, shift: np.ndarr
     return out
 
 
-@nb.njit(**_JIT)
+@nb.njit(**KERNEL)
 def eye_centres(C: np.ndarray, anchors: np.ndarray, half_w: int, half_h: int):
     """Eye centres (2, 2) in crop pixels by three mean-shift steps of C² around the expected anchors.
 
@@ -756,7 +814,7 @@ _S_DIV = np.r_[0, np.round(255.0 * 4096.0 / np.arange(1, 256))].astype(np.int64)
 _H_DIV = np.r_[0, np.round(180.0 * 4096.0 / (6.0 * np.arange(1, 256)))].astype(np.int64)
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INNER)
 def _hsv(r: int, g: int, b: int):
     """OpenCV's 8-bit RGB -> HSV (hue code 0..179, saturation and value 0..255), same integer arithmetic."""
     v = max(r, g, b)
@@ -776,7 +834,7 @@ def _hsv(r: int, g: int, b: int):
     return h, s, v
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INNER)
 def _cr_cb(r: int, g: int, b: int):
     """OpenCV's 8-bit RGB -> YCrCb (same integer arithmetic): (Y, Cr, Cb)."""
     y = (r * 4899 + g * 9617 + b * 1868 + 8192) >> 14
@@ -785,7 +843,7 @@ def _cr_cb(r: int, g: int, b: int):
     return y, cr, cb
 
 
-@nb.njit(**_JIT)
+@nb.njit(**KERNEL)
 def skin_fraction(crop: np.ndarray, boxes: np.ndarray, table: np.ndarray) -> float:
     """Fraction of the pixels of the rectangles whose (Cr, Cb) the skin table accepts (Y in 35..250), as
     :func:`~facepuppet.capture.face.skin_probability`."""
@@ -802,7 +860,7 @@ def skin_fraction(crop: np.ndarray, boxes: np.ndarray, table: np.ndarray) -> flo
     return hit / n if n else 0.0
 
 
-@nb.njit(**_JIT)
+@nb.njit(**KERNEL)
 def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarray, min_saturation: float,
                       skin_boxes: np.ndarray, feature_boxes: np.ndarray):
     """Eq. 1 and the contrast C over a face crop in one pass (see :mod:`facepuppet.capture.color`).

@@ -20,6 +20,7 @@ from functools import lru_cache
 import numba as nb
 import numpy as np
 
+from facepuppet.capture._jit import INNER, KERNEL
 from facepuppet.capture.curves import CURVE_NAMES, POINT_SAMPLES, bernstein, curve_points, fit_bezier
 
 __all__ = [
@@ -419,7 +420,7 @@ def _upright_start(K: np.ndarray, xyz: np.ndarray, uv: np.ndarray) -> tuple[floa
     return roll, np.linalg.lstsq(A[:, 2:], rest, rcond=None)[0]
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(**KERNEL)
 def _refine_upright(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray, roll: float, t: np.ndarray,
                     iterations: int = 10, tol: float = 1e-6):
     """Gauss-Newton on the reprojection error over (roll, t) of the upright pose ``FRONTAL_ROTATION @ Rz(roll)``.
@@ -473,7 +474,7 @@ def _checked_pose(R: np.ndarray, t: np.ndarray, K: np.ndarray, xyz: np.ndarray, 
     return HeadPose(R, t, K, err)
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(**INNER)
 def _solve_spd(A: np.ndarray, b: np.ndarray) -> np.ndarray:
     """x with A x = b for a small symmetric positive definite A (Cholesky, A = L Lᵀ)."""
     n = len(b)
@@ -499,7 +500,7 @@ def _solve_spd(A: np.ndarray, b: np.ndarray) -> np.ndarray:
     return x
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(**KERNEL)
 def _refine_pose(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray, R0: np.ndarray, t0: np.ndarray,
                  iterations: int = 10, tol: float = 1e-5):
     """Gauss-Newton on the reprojection error Σ |π(K (R X + t)) − u|² from (R0, t0).
@@ -559,7 +560,7 @@ def _refine_pose(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray, R0: np.ndarray,
     return R, t, False
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(**KERNEL)
 def _reprojection_error(xyz: np.ndarray, uv: np.ndarray, K: np.ndarray, R: np.ndarray, t: np.ndarray) -> float:
     """Mean distance (pixels) between the image points uv (N, 2) and the head points xyz (N, 3) projected."""
     total = 0.0
@@ -628,7 +629,7 @@ def points_in_head(curves: np.ndarray, pose: HeadPose, frame_size: tuple[int, in
                          np.asarray(K, dtype=float), np.ascontiguousarray(R), np.ascontiguousarray(t))
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(**KERNEL)
 def _back_project(curves: np.ndarray, basis: np.ndarray, generic: np.ndarray, K: np.ndarray, R: np.ndarray,
                   t: np.ndarray) -> np.ndarray:
     """The work of :func:`points_in_head`: each curve sample's camera ray X = depth · ray met with the plane

@@ -22,6 +22,7 @@ import cv2
 import numba as nb
 import numpy as np
 
+from facepuppet.capture._jit import INNER, KERNEL
 from facepuppet.capture.curves import bernstein
 
 __all__ = ["SnakeConfig", "SnakeSolver", "snake_fields", "snake_energy", "minimise_snakes", "box_guess", "UPPER",
@@ -95,7 +96,7 @@ def _taps(blur: int) -> np.ndarray:
     return taps.astype(np.float32)              # shared by the calls: not to be modified
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(**INNER)
 def _reflect(i: int, n: int) -> int:
     """Index ``i`` reflected into [0, n) without repeating the edge (OpenCV's BORDER_REFLECT_101)."""
     if i < 0:
@@ -105,7 +106,7 @@ def _reflect(i: int, n: int) -> int:
     return min(max(i, 0), n - 1)
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(**INNER)
 def _central(img: np.ndarray, out: np.ndarray, cx: int, cy: int) -> None:
     """Central differences (f(+1) - f(-1)) / 2 along x into channel ``cx`` and along y into ``cy`` (reflected
     borders)."""
@@ -119,7 +120,7 @@ def _central(img: np.ndarray, out: np.ndarray, cx: int, cy: int) -> None:
             out[y, x, cy] = 0.5 * (img[yp, x] - img[ym, x])
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(**KERNEL)
 def _fields(img: np.ndarray, taps: np.ndarray) -> np.ndarray:
     """The stack of :func:`snake_fields`: separable Gaussian blur, then central differences (both with
     reflected borders, as OpenCV's GaussianBlur and Sobel with ksize=1 and scale 1/2)."""
@@ -281,7 +282,7 @@ class SnakeSolver:
                         *self._steps)
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(**INNER)
 def _lookup(fields: np.ndarray, x: float, y: float, out: np.ndarray) -> None:
     """Bilinear lookup of all fields at (x, y); pixels outside the image read as 0."""
     h, w, k = fields.shape
@@ -303,7 +304,7 @@ def _lookup(fields: np.ndarray, x: float, y: float, out: np.ndarray) -> None:
                 out[c] += wgt * fields[yy, xx, c]
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(**KERNEL)
 def _descend(x, shift, mask, b, fields, w_edge, w_in, w_out, step, decay, iterations):
     """The downhill steps of :func:`minimise_snakes` (x is updated in place and returned)."""
     c, n = shift.shape[0], b.shape[0]

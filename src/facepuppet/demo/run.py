@@ -343,6 +343,13 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
         return now
 
     t = time.perf_counter()
+    if config.tracker == "color":
+        from facepuppet.capture.precompile import precompile
+
+        # The tracker's kernels compile in other processes while the performer is rendered (on a fresh
+        # machine; later they load from numba's cache). The shape models read the lips and brows, so only
+        # the eyes' rules and the rest of a frame's work are needed.
+        kernels = precompile(tasks=("eyes", "frame"))
     size = (config.size, config.size)
     cal = calibration_script(fps=config.fps)
     perf = performance_script(config.seconds, config.fps, seed=config.seed)
@@ -364,6 +371,7 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
         options = ColorTrackerConfig(landmark_acquire=False, anchor_calibration=0.0)
         profile = calibrate_profile(list(cal_frames), cal_curves, name="demo performer", progress=False,
                                     tracker=options)
+        kernels.wait()
         save_profile(files["performer-profile.npz"], profile)
         t = step("train profile", t)
 

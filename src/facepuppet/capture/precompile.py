@@ -1,0 +1,151 @@
+"""The colour tracker's kernels compiled before their first use, by worker processes in parallel.
+
+numba compiles a kernel on its first call and keeps the machine code in its on-disk cache, where every later
+process finds it (all the tracker's kernels load in under a second). On a fresh machine, though, the colour
+tracker's first frame waits for the whole compile: about 40 s on one core. :func:`precompile` splits that work
+into :data:`TASKS` (the outline kernels of the eyes, the brows and the mouth, and the rest of a frame's work)
+and hands them to worker processes, one per core, while the caller goes on (the demo renders its performer
+meanwhile); :meth:`Precompile.wait` returns when the kernels are in the cache. With a warm cache each task only
+loads its kernels.
+
+The tasks call the kernels on small synthetic inputs of the types the tracker passes them (types select the
+compiled code, values do not). Kernels and the functions they call are compiled so that processes compiling at
+once never write the same cache entry differently (:mod:`facepuppet.capture._jit`). A test runs the tracker
+after :func:`precompile` and checks that it compiles nothing.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import time
+from concurrent.futures import Future, ProcessPoolExecutor
+
+import numpy as np
+
+__all__ = ["TASKS", "Precompile", "precompile", "run_task", "wait_pending"]
+
+#: The work :func:`precompile` can hand out, longest first: the outline kernels of each part (the eyes' task
+#: also compiles the blob kernel, which the brows' and the mouth's then load from the cache), the rest of a
+#: frame's work, and the lips' snakes (not needed where the profile's shape models read the lips).
+TASKS = ("eyes", "frame", "brows", "mouth", "snakes")
+
+_CROP = 96                                              # synthetic crop side, pixels
+
+
+def _outline_inputs() -> tuple:
+    """Arguments of :func:`~facepuppet.capture.outlines.outline_features` of the tracker's types: a blank crop,
+    the generic layout placed on it, the feature rectangles."""
+    from facepuppet.capture.color_tracker import _BLOB_PARAMS
+    from facepuppet.capture.outlines import BOX_NAMES
+    from facepuppet.capture.pose import generic_curves
+
+    n = _CROP
+    C = np.zeros((n, n), np.float32)
+    raw = np.zeros((n, n), np.float32)
+    value = np.zeros((n, n), np.uint8)
+    g = generic_curves()[..., :2]
+    layout = np.ascontiguousarray((g - g.min(axis=(0, 1))) / np.ptp(g, axis=(0, 1)).max() * (0.6 * n) + 0.2 * n)
+    boxes = np.tile(np.array([n // 4, n // 4, 3 * n // 4, 3 * n // 4], np.int64), (len(BOX_NAMES), 1))
+    return C, raw, value, layout, np.zeros(2), boxes, _BLOB_PARAMS, 0.5 * n, 0.12
+
+
+def _frame_work(snakes: bool) -> None:
+    """What the colour tracker compiles for a frame besides the outlines: Eq. 1 and the contrast, the eye
+    search, the skin test, the rectangles, the lid model, the filters and the head pose; or the snakes."""
+    from facepuppet.capture.color_tracker import _SNAKE_IDX, ColorTracker, ColorTrackerConfig
+    from facepuppet.capture.lids import PATCH_SIZE, apply_lid_model
+    from facepuppet.capture.snakes import snake_fields
+
+    tracker = ColorTracker(config=ColorTrackerConfig(landmark_acquire=False))
+    try:
+        w, h = tracker._size
+        crop = np.zeros((h, w, 3), np.uint8)
+        curves = np.ascontiguousarray(tracker._layout_px, dtype=np.float64)
+        if snakes:
+            tracker._snakes(curves[_SNAKE_IDX], snake_fields(np.zeros((h, w), np.float32), 5))
+            return
+        C = tracker.intensity(crop)
+        tracker._eye_centres(C)
+        tracker._skin_ok(crop)
+        tracker._boxes_now()
+        lids = {"coef": np.zeros((2, PATCH_SIZE[0] * PATCH_SIZE[1])), "intercept": np.zeros(2)}
+        apply_lid_model(curves.copy(), crop, lids)
+        tracker._curve_filter(curves, 1 / 30)
+        tracker._curve_filter(curves, 1 / 30)          # the first sample only starts the filter
+        tracker._features(curves, (w, h))
+        tracker._features(curves, (w, h))               # from the previous frame's pose
+    finally:
+        tracker.close()
+
+
+def run_task(name: str) -> float:
+    """Compile (or load from the cache) the kernels of one of :data:`TASKS`; returns the seconds it took."""
+    t0 = time.perf_counter()
+    if name in ("eyes", "brows", "mouth"):
+        from facepuppet.capture.outlines import outline_features
+
+        outline_features(*_outline_inputs(), parts=(name,))
+    elif name in ("frame", "snakes"):
+        _frame_work(snakes=name == "snakes")
+    else:
+        raise ValueError(f"unknown precompile task {name!r}; known: {', '.join(TASKS)}")
+    return time.perf_counter() - t0
+
+
+class Precompile:
+    """Kernels being compiled by worker processes (:func:`precompile`)."""
+
+    def __init__(self, futures: dict[str, Future], pool: ProcessPoolExecutor | None):
+        self._futures = futures
+        self._pool = pool
+        self._result: dict[str, float | str] | None = None
+
+    def wait(self) -> dict[str, float | str]:
+        """Wait for every task. Returns, per task, the seconds it took in its worker, or why it failed (the
+        kernels of a failed task are then compiled on first use, as without this)."""
+        if self._result is None:
+            out: dict[str, float | str] = {}
+            for name, fut in self._futures.items():
+                try:
+                    out[name] = fut.result()
+                except Exception as exc:        # a worker that could not compile leaves it to the caller
+                    out[name] = f"{type(exc).__name__}: {exc}"
+            if self._pool is not None:
+                self._pool.shutdown()
+            self._result = out
+            if self in _pending:
+                _pending.remove(self)
+        return self._result
+
+
+#: Jobs started in this process and not yet waited for (:func:`wait_pending`).
+_pending: list[Precompile] = []
+
+
+def precompile(tasks: tuple[str, ...] = TASKS, workers: int | None = None) -> Precompile:
+    """Start compiling the kernels of ``tasks`` into numba's cache in ``workers`` processes (default: one per
+    core, at most one per task) and return at once.
+
+    Wait for the returned job before tracking; a :class:`~facepuppet.capture.color_tracker.ColorTracker` made
+    in this process waits for it anyway (:func:`wait_pending`), since compiling the same kernels in two
+    processes at once only slows both. With fewer than two workers nothing is started: the tracker compiles
+    on first use, as fast as one worker would.
+    """
+    unknown = [t for t in tasks if t not in TASKS]
+    if unknown:
+        raise ValueError(f"unknown precompile tasks {unknown}; known: {', '.join(TASKS)}")
+    n = min(len(tasks), workers if workers is not None else (os.cpu_count() or 1))
+    if n < 2:
+        return Precompile({}, None)
+    # Spawned, not forked: the parent may hold threads (OpenCV's) that a fork would copy mid-work.
+    pool = ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn"))
+    job = Precompile({name: pool.submit(run_task, name) for name in TASKS if name in tasks}, pool)
+    _pending.append(job)
+    return job
+
+
+def wait_pending() -> None:
+    """Wait for every :func:`precompile` job this process started and has not waited for."""
+    while _pending:
+        _pending[-1].wait()
