@@ -189,8 +189,8 @@ def test_a_profile_with_shape_models_keeps_the_face_frame_filtered(monkeypatch):
 
 
 def test_the_rules_a_profiles_models_replace_are_not_run():
-    """With models of the lips and both brows the tracker reads only the eyes by §3.2's rules (and no snakes);
-    its curves are those it gives when every rule runs, since the models replace the rest."""
+    """With models of every family the tracker runs none of §3.2's rules (no snakes, no eyelid model); its
+    curves are those it gives when every rule runs, since the models replace them."""
     from facepuppet.capture.color_tracker import ColorTracker, ColorTrackerConfig
     from facepuppet.capture.outlines import OUTLINE_PARTS
     from facepuppet.demo.performer import render_performer
@@ -200,9 +200,12 @@ def test_the_rules_a_profiles_models_replace_are_not_run():
     shapes = {f: _constant_model(f, np.linspace(0.1, 0.9, 8 * len(idx))) for f, idx in FAMILIES.items()}
     lips_only = ColorTracker(Profile(shapes={"lips": shapes["lips"]}))
     assert lips_only._parts == ("eyes", "brows")
-    fast = ColorTracker(Profile(shapes=shapes))
-    assert fast._parts == ("eyes",)
-    every = ColorTracker(Profile(shapes=shapes))
+    no_eyes = ColorTracker(Profile(shapes={f: m for f, m in shapes.items() if not f.startswith("eye_")}))
+    assert no_eyes._parts == ("eyes",)
+    lids = {"coef": np.zeros((2, 128)), "intercept": np.full(2, 0.3)}
+    fast = ColorTracker(Profile(shapes=shapes, lids=lids))
+    assert fast._parts == ()
+    every = ColorTracker(Profile(shapes=shapes, lids=lids))
     every._parts = OUTLINE_PARTS
     for k in range(0, 40, 3):
         a, b = fast.track(frames[k], 33 * k), every.track(frames[k], 33 * k)

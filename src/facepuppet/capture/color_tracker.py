@@ -108,7 +108,7 @@ class ColorTrackerConfig:
         against MediaPipe's scores, d_cutoff 1 -> 4 Hz: performer_c 0.79 -> 0.90, performer_b 0.37 -> 0.43,
         performer_a 0.84 both).
     shape_filter : OneEuroConfig or None
-        Filter of the lips' and brows' control points when the profile has shape models
+        Filter of the control points the profile's shape models read (lips, brows, eyes)
         (:mod:`~facepuppet.capture.shape_models`), whose readings are steadier than the rules' and whose
         lag costs more than their jitter; None passes them unfiltered.
     frame_filter : OneEuroConfig
@@ -147,8 +147,8 @@ class ColorTrackerConfig:
         Face units an eye anchor must move by for the calibration to move the anchors at all.
     outline_parts : tuple of str
         Which features §3.2's rules read (:data:`~facepuppet.capture.outlines.OUTLINE_PARTS`); the others keep
-        the layout's curves. The rules of the lips and of the brows are skipped anyway where the profile's
-        shape models read them (their curves would be replaced), and the snakes go with the lips' rules.
+        the layout's curves. A part's rules are skipped anyway where the profile's shape models read it (its
+        curves would be replaced); the snakes go with the lips' rules, the eyelid model with the eyes'.
     resize_cost : float
         When the face was just lost, candidates for finding it again are compared by their likeness to a face
         minus this times the absolute log ratio of their size to the lost frame's (a doubling costs 0.21): a
@@ -266,6 +266,7 @@ class ColorTracker:
         shaped = set(self.profile.shapes)
         replaced = {"mouth"} if "lips" in shaped else set()
         replaced |= {"brows"} if {"brow_left", "brow_right"} <= shaped else set()
+        replaced |= {"eyes"} if {"eye_left", "eye_right"} <= shaped else set()
         self._parts = tuple(p for p in config.outline_parts if p not in replaced)
         self._lids = {k: np.ascontiguousarray(v, dtype=np.float64) for k, v in profile.lids.items()}
         self._frame_filter = OneEuro(config.frame_filter)
@@ -631,9 +632,9 @@ class ColorTracker:
     def _outlines(self, C: np.ndarray, crop: np.ndarray, layout: np.ndarray, boxes: np.ndarray,
                   unit: float) -> np.ndarray:
         """The curves (C, 4, 2) in crop pixels: §3.2's rules from the layout placed on the crop (``layout``),
-        the lips refined as snakes, the lids by the performer's eyelid model if any, the lips and brows by the
-        performer's shape models if any (which make the snakes needless). ``unit``: crop pixels per face
-        unit."""
+        the lips refined as snakes, the lids by the performer's eyelid model if any, the lips, brows and eyes
+        by the performer's shape models if any (which make the rules, the snakes and the eyelid model they
+        replace needless). ``unit``: crop pixels per face unit."""
         curves_px = outline_features(C, self._raw, self._value, layout, self._mouth_offset, boxes, _BLOB_PARAMS,
                                      unit, float(self.profile.mouth_reach), parts=self._parts)
         idx = _SNAKE_IDX
@@ -646,7 +647,7 @@ class ColorTracker:
             if x1 - x0 > 2 * m and y1 - y0 > 2 * m:
                 o = np.array([x0, y0], dtype=float)
                 curves_px[idx] = self._snakes(curves_px[idx] - o, snake_fields(C[y0:y1, x0:x1], 5)) + o
-        if self.profile.lids:
+        if self.profile.lids and "eyes" in self._parts:
             # The performer's eyelid model reads the lids off the look of each eye (capture.lids).
             apply_lid_model(curves_px, crop, self._lids)
         if self.profile.shapes:

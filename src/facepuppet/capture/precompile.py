@@ -16,10 +16,11 @@ after :func:`precompile` and checks that it compiles nothing.
 
 from __future__ import annotations
 
-import multiprocessing
+import json
 import os
+import subprocess
+import sys
 import time
-from concurrent.futures import Future, ProcessPoolExecutor
 
 import numpy as np
 
@@ -96,9 +97,8 @@ def run_task(name: str) -> float:
 class Precompile:
     """Kernels being compiled by worker processes (:func:`precompile`)."""
 
-    def __init__(self, futures: dict[str, Future], pool: ProcessPoolExecutor | None):
-        self._futures = futures
-        self._pool = pool
+    def __init__(self, workers: list[tuple[tuple[str, ...], subprocess.Popen]]):
+        self._workers = workers
         self._result: dict[str, float | str] | None = None
 
     def wait(self) -> dict[str, float | str]:
@@ -106,13 +106,16 @@ class Precompile:
         kernels of a failed task are then compiled on first use, as without this)."""
         if self._result is None:
             out: dict[str, float | str] = {}
-            for name, fut in self._futures.items():
-                try:
-                    out[name] = fut.result()
-                except Exception as exc:        # a worker that could not compile leaves it to the caller
-                    out[name] = f"{type(exc).__name__}: {exc}"
-            if self._pool is not None:
-                self._pool.shutdown()
+            for tasks, proc in self._workers:
+                stdout, stderr = proc.communicate()
+                done = {}
+                for line in stdout.splitlines():
+                    try:
+                        done.update(json.loads(line))
+                    except ValueError:
+                        pass
+                why = (stderr.strip().splitlines() or [f"worker exited with {proc.returncode}"])[-1]
+                out.update({t: done.get(t, why) for t in tasks})
             self._result = out
             if self in _pending:
                 _pending.remove(self)
@@ -131,16 +134,22 @@ def precompile(tasks: tuple[str, ...] = TASKS, workers: int | None = None) -> Pr
     in this process waits for it anyway (:func:`wait_pending`), since compiling the same kernels in two
     processes at once only slows both. With fewer than two workers nothing is started: the tracker compiles
     on first use, as fast as one worker would.
+
+    The workers are fresh interpreters running this module (``python -m facepuppet.capture.precompile TASK
+    ...``), so the caller's script is not imported again in them.
     """
     unknown = [t for t in tasks if t not in TASKS]
     if unknown:
         raise ValueError(f"unknown precompile tasks {unknown}; known: {', '.join(TASKS)}")
-    n = min(len(tasks), workers if workers is not None else (os.cpu_count() or 1))
+    ordered = [t for t in TASKS if t in tasks]
+    n = min(len(ordered), workers if workers is not None else (os.cpu_count() or 1))
     if n < 2:
-        return Precompile({}, None)
-    # Spawned, not forked: the parent may hold threads (OpenCV's) that a fork would copy mid-work.
-    pool = ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn"))
-    job = Precompile({name: pool.submit(run_task, name) for name in TASKS if name in tasks}, pool)
+        return Precompile([])
+    shares = [tuple(ordered[i::n]) for i in range(n)]          # longest first, dealt out in turn
+    procs = [(share, subprocess.Popen([sys.executable, "-m", __name__, *share], stdout=subprocess.PIPE,
+                                      stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True))
+             for share in shares]
+    job = Precompile(procs)
     _pending.append(job)
     return job
 
@@ -149,3 +158,19 @@ def wait_pending() -> None:
     """Wait for every :func:`precompile` job this process started and has not waited for."""
     while _pending:
         _pending[-1].wait()
+
+
+def _main(argv: list[str]) -> int:
+    """Run the tasks named; one JSON line per task on stdout: its seconds, or why it failed."""
+    for name in argv:
+        try:
+            done: float | str = run_task(name)
+        except Exception as exc:                # the next task may still compile
+            done = f"{type(exc).__name__}: {exc}"
+        sys.stdout.write(json.dumps({name: done}) + "\n")
+        sys.stdout.flush()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(_main(sys.argv[1:]))

@@ -1,4 +1,4 @@
-"""The performer's lips and brows read from the look of the face crop: linear models learnt with the profile.
+"""The performer's lips, brows and eyes read from the look of the face crop: linear models learnt with the profile.
 
 The colour tracker's rules (:mod:`~facepuppet.capture.outlines`) move each lip and brow curve of the layout by
 a few numbers read off its blob: the mouth's corners and one shift per curve, the brow's height and tilt. The
@@ -8,7 +8,10 @@ much as the expressions move them (1.9 against 2.2 mm RMS) and the brows' 1.1 ag
 and brows made true the demo's error fell from 0.71 to 0.15. So with the performer profile (§3.1, trained
 on frames labelled by the landmark backend or, in the demo, by the true curves) comes, per family, a ridge
 regression from the look of the face crop around the family to its curves, as the eyelid model
-(:mod:`~facepuppet.capture.lids`) does for the lids.
+(:mod:`~facepuppet.capture.lids`) does for the lids. Each eye has one too (both lids and their corners): the
+rules read the eyes on the contrast C, whose weights the colour network predicts, and two networks trained on
+the same frames to nearly the same loss gave the demo 0.41 and 0.52 (a numeric difference of 1e-6 between two
+OpenCV builds set them apart); with the eyes' models both gave 0.38-0.39 (seeds 0-2).
 
 Geometry, for one family (:data:`FAMILIES`): its box is the bounding box of its curves in the layout as the
 tracker placed it on the crop (the face frame with the eyes' correction), widened by :data:`MARGINS` (shares
@@ -36,10 +39,13 @@ FAMILIES: dict[str, np.ndarray] = {
     "lips": np.array([i for i, n in enumerate(CURVE_NAMES) if n.startswith("lip_")]),
     "brow_left": np.array([CURVE_NAMES.index("brow_left")]),
     "brow_right": np.array([CURVE_NAMES.index("brow_right")]),
+    "eye_left": np.array([i for i, n in enumerate(CURVE_NAMES) if n.startswith("eye_left_")]),
+    "eye_right": np.array([i for i, n in enumerate(CURVE_NAMES) if n.startswith("eye_right_")]),
 }
 #: Widening of each family's box: (each side, above, below), shares of the box's width.
 MARGINS: dict[str, tuple[float, float, float]] = {"lips": (0.15, 0.35, 0.6), "brow_left": (0.15, 0.25, 0.2),
-                                                  "brow_right": (0.15, 0.25, 0.2)}
+                                                  "brow_right": (0.15, 0.25, 0.2), "eye_left": (0.15, 0.3, 0.3),
+                                                  "eye_right": (0.15, 0.3, 0.3)}
 #: Width and height of the resampled patch (pixels).
 PATCH_SIZE = (24, 16)
 #: Jittered copies of each labelled frame, and their largest shift (share of the box's width) and scale change.

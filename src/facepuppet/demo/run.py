@@ -347,8 +347,8 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
         from facepuppet.capture.precompile import precompile
 
         # The tracker's kernels compile in other processes while the performer is rendered (on a fresh
-        # machine; later they load from numba's cache). The shape models read the lips and brows, so only
-        # the eyes' rules and the rest of a frame's work are needed.
+        # machine; later they load from numba's cache). The profile's shape models read the lips, brows and
+        # eyes, so only the eyes' rules (which profile training runs) and the rest of a frame's work are needed.
         kernels = precompile(tasks=("eyes", "frame"))
     size = (config.size, config.size)
     cal = calibration_script(fps=config.fps)
