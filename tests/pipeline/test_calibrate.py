@@ -265,7 +265,9 @@ def test_auto_regression_separates_expressions_shown_together(rng):
     scores[:, col["jawOpen"]] = s_jaw
     scores[:, [col["mouthSmileLeft"], col["mouthSmileRight"]]] = s_smile[:, None]
     points = neutral + s_jaw[:, None, None] * jaw + s_smile[:, None, None] * smile
+    points[[15, 33, 60]] = np.nan            # faces whose head pose failed: curves but no points
     track = make_track(points, extras={"blendshapes": scores, "blendshape_names": np.array(ARKIT_NAMES)})
+    assert track.valid[[15, 33, 60]].all()
     result = calibrate_auto("clip", ["jawOpen", "mouthSmile"], config=CalibrateConfig(window=3),
                             scores_track=track, track=track)
     assert result.names == ("jawOpen", "mouthSmile")

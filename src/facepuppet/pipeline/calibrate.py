@@ -515,7 +515,9 @@ def calibrate_auto(media: str | os.PathLike, names: Sequence[str], *, config: Ca
     _need_faces(track, media)
     scores, score_names = _blendshape_scores(scores_track)
     col = {n: i for i, n in enumerate(score_names)}
-    ok = track.valid & scores_track.valid & np.isfinite(scores).all(axis=1)
+    # A frame with a face but no head pose (the solver failed) has curves but no points in the head.
+    ok = (track.valid & scores_track.valid & np.isfinite(scores).all(axis=1)
+          & np.isfinite(track.points).all(axis=(1, 2)))
     if not ok.any():
         raise FacepuppetError(f"{media}: no frame has both a face and blendshape scores")
 
