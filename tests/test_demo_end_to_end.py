@@ -14,8 +14,9 @@ from gltf_validator import gltf_validator  # noqa: F401  (fixture)
 
 ERROR_BAR = 0.5
 #: Bound on the demo's error with the colour tracker on smaller, shorter videos (5 s, 256 px, seed 0; measured
-#: 0.58 on 2026-11-30; 0.86 before the shape models, 1.03 before the calibration's head-motion span).
-COLOUR_BOUND = 0.7
+#: 0.48 with OpenCV 5.0 and 0.51 with 5.1 on 2026-11-30; 0.58 before the eyes' shape models, 0.86 before any,
+#: 1.03 before the calibration's head-motion span).
+COLOUR_BOUND = 0.65
 
 
 @pytest.fixture(scope="module")
@@ -103,8 +104,8 @@ def test_demo_runs_with_the_colour_tracker(tmp_path):
     """The whole chain with the colour tracker on a smaller face and a quicker performance than the default.
 
     The default demo (the colour tracker, 320 px) meets the bar (:data:`ERROR_BAR`, test above); at 256 px with
-    all 13 key expressions in 5 s this run measured 0.58, with curves 0.7 px from the true ones (the default
-    demo at 5 s: 0.43). The bound catches the colour path getting worse on harder footage.
+    all 13 key expressions in 5 s this run measured 0.48-0.51, with curves 0.6 px from the true ones (the
+    default demo at 5 s: 0.38-0.40). The bound catches the colour path getting worse on harder footage.
     """
     from facepuppet.demo.run import DemoConfig, run_demo
     from facepuppet.io.track import load_track
