@@ -77,3 +77,14 @@ def test_precompile_checks_its_tasks_and_runs_nothing_on_one_worker():
     with pytest.raises(ValueError, match="unknown precompile task 'nose'"):
         run_task("nose")
     assert precompile(workers=1).wait() == {}
+
+
+def test_a_worker_that_fails_is_reported_not_raised(monkeypatch):
+    """A worker that cannot run (here: no interpreter) leaves its tasks to the caller, with the reason."""
+    import facepuppet.capture.precompile as pc
+
+    monkeypatch.setattr(pc.sys, "executable", "false")
+    job = pc.precompile(tasks=("eyes", "frame"), workers=2)
+    assert job.wait() == {"eyes": "worker exited with 1", "frame": "worker exited with 1"}
+    pc.wait_pending()                                   # nothing left pending
+    assert pc._pending == []

@@ -3,8 +3,8 @@
 numba compiles a kernel on its first call and keeps the machine code in its on-disk cache, where every later
 process finds it (all the tracker's kernels load in under a second). On a fresh machine, though, the colour
 tracker's first frame waits for the whole compile: about 40 s on one core. :func:`precompile` splits that work
-into :data:`TASKS` (the outline kernels of the eyes, the brows and the mouth, and the rest of a frame's work)
-and hands them to worker processes, one per core, while the caller goes on (the demo renders its performer
+into :data:`TASKS` (the outline kernels of the eyes, the brows and the mouth, the rest of a frame's work, the
+snakes) and hands them to worker processes, one per core, while the caller goes on (the demo renders its performer
 meanwhile); :meth:`Precompile.wait` returns when the kernels are in the cache. With a warm cache each task only
 loads its kernels.
 
@@ -20,7 +20,9 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 import time
+from typing import IO
 
 import numpy as np
 
@@ -97,8 +99,8 @@ def run_task(name: str) -> float:
 class Precompile:
     """Kernels being compiled by worker processes (:func:`precompile`)."""
 
-    def __init__(self, workers: list[tuple[tuple[str, ...], subprocess.Popen]]):
-        self._workers = workers
+    def __init__(self, workers: list[tuple[tuple[str, ...], subprocess.Popen, IO[bytes], IO[bytes]]]):
+        self._workers = workers             # (tasks, process, its stdout file, its stderr file)
         self._result: dict[str, float | str] | None = None
 
     def wait(self) -> dict[str, float | str]:
@@ -106,16 +108,21 @@ class Precompile:
         kernels of a failed task are then compiled on first use, as without this)."""
         if self._result is None:
             out: dict[str, float | str] = {}
-            for tasks, proc in self._workers:
-                stdout, stderr = proc.communicate()
+            for tasks, proc, stdout, stderr in self._workers:
+                proc.wait()
                 done = {}
-                for line in stdout.splitlines():
+                for f in (stdout, stderr):
+                    f.seek(0)
+                for line in stdout.read().decode(errors="replace").splitlines():
                     try:
                         done.update(json.loads(line))
                     except ValueError:
                         pass
-                why = (stderr.strip().splitlines() or [f"worker exited with {proc.returncode}"])[-1]
+                told = stderr.read().decode(errors="replace").strip().splitlines()
+                why = told[-1] if told else f"worker exited with {proc.returncode}"
                 out.update({t: done.get(t, why) for t in tasks})
+                stdout.close()
+                stderr.close()
             self._result = out
             if self in _pending:
                 _pending.remove(self)
@@ -145,11 +152,14 @@ def precompile(tasks: tuple[str, ...] = TASKS, workers: int | None = None) -> Pr
     n = min(len(ordered), workers if workers is not None else (os.cpu_count() or 1))
     if n < 2:
         return Precompile([])
-    shares = [tuple(ordered[i::n]) for i in range(n)]          # longest first, dealt out in turn
-    procs = [(share, subprocess.Popen([sys.executable, "-m", __name__, *share], stdout=subprocess.PIPE,
-                                      stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True))
-             for share in shares]
-    job = Precompile(procs)
+    workers_started = []
+    for share in (tuple(ordered[i::n]) for i in range(n)):     # longest first, dealt out in turn
+        # Files, not pipes: a worker's warnings cannot fill a pipe nobody reads until wait().
+        out, err = tempfile.TemporaryFile(), tempfile.TemporaryFile()
+        proc = subprocess.Popen([sys.executable, "-m", __name__, *share], stdout=out, stderr=err,
+                                stdin=subprocess.DEVNULL)
+        workers_started.append((share, proc, out, err))
+    job = Precompile(workers_started)
     _pending.append(job)
     return job
 
