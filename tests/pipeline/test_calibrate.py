@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -289,3 +291,36 @@ def test_coordinate_noise_recovers_each_coordinates_noise(rng):
     floor = 0.1 * np.median(np.sqrt((sigma ** 2).mean(axis=1)))
     np.testing.assert_allclose(got, np.sqrt(sigma ** 2 + floor ** 2), rtol=0.1)
     assert np.allclose(got[:3], got[:3].min()) and got[:3].min() > 0
+
+
+def test_auto_takes_the_head_turns_the_landmark_backend_sees_as_nuisance(rng):
+    """Points that move with the jaw's score and with the head's yaw (as MediaPipe's rotation has it) while the
+    tracker's own pose stays upright: the nuisance is the yaw's part alone; a track whose pose turns gets none."""
+    from facepuppet.arkit import ARKIT_NAMES
+    from facepuppet.pipeline.calibrate import head_turn_nuisance
+
+    col = {n: i for i, n in enumerate(ARKIT_NAMES)}
+    f = 300
+    neutral = rng.normal(size=(P, 3))
+    jaw, turn = rng.normal(size=(P, 3)), rng.normal(size=(P, 3))
+    s_jaw = np.clip(np.sin(np.arange(f) / 7.0), 0, 1)
+    s_jaw[:8] = 0.0
+    yaw = 0.15 * np.sin(np.arange(f) / 11.0 + 1.0)
+    scores = np.zeros((f, len(ARKIT_NAMES)))
+    scores[:, col["jawOpen"]] = s_jaw
+    points = neutral + s_jaw[:, None, None] * jaw + np.sin(yaw)[:, None, None] * turn
+    rot = np.zeros((f, 3, 3))
+    rot[:, 0, 0] = rot[:, 2, 2] = np.cos(yaw)
+    rot[:, 0, 2], rot[:, 2, 0], rot[:, 1, 1] = np.sin(yaw), -np.sin(yaw), 1.0
+    extras = {"blendshapes": scores, "blendshape_names": np.array(ARKIT_NAMES)}
+    scores_track = replace(make_track(points, extras=extras), rotation=rot)
+    upright = make_track(points)
+    got = head_turn_nuisance(upright, scores_track, scores, np.ones(f, bool), neutral)
+    expect = (np.sin(yaw) - np.sin(yaw).mean())[:, None, None] * turn
+    np.testing.assert_allclose(got - neutral, expect, atol=1e-9)
+    result = calibrate_auto("clip", ["jawOpen"], config=CalibrateConfig(window=3), scores_track=scores_track,
+                            track=upright)
+    assert result.nuisance is not None and result.nuisance.shape[1:] == neutral.shape
+    alone = calibrate_auto("clip", ["jawOpen"], config=CalibrateConfig(window=3), scores_track=scores_track,
+                           track=scores_track)
+    assert alone.nuisance is None
