@@ -201,8 +201,8 @@ def calibrate(frames, curves, *, base, name: str, augment: int, seed: int, progr
             break
         anchors[:2] = np.median(np.stack(got), axis=0)
     # Where the tracker itself puts the eyes' corners on the labelled frames (the eyelid model's patches are
-    # cut there at run time), and the crops and placed layouts it reads the lips and brows on (the lips' and
-    # brows' rules are not needed for either).
+    # cut there at run time), and the crops and placed layouts the shape models read (the lips' and brows'
+    # rules are not needed for either).
     tracker = ColorTracker(replace(profile, anchors=anchors), config=replace(options, outline_parts=("eyes",)))
     tracked = []
     pairs: dict[str, tuple[list, list]] = {family: ([], []) for family in FAMILIES}
