@@ -268,7 +268,9 @@ class ColorTracker:
         replaced |= {"brows"} if {"brow_left", "brow_right"} <= shaped else set()
         replaced |= {"eyes"} if {"eye_left", "eye_right"} <= shaped else set()
         self._parts = tuple(p for p in config.outline_parts if p not in replaced)
-        self._lids = {k: np.ascontiguousarray(v, dtype=np.float64) for k, v in profile.lids.items()}
+        # The eyelid model (and its filter) goes with the eyes' rules: where those are not run, it is not either.
+        self._lids = ({k: np.ascontiguousarray(v, dtype=np.float64) for k, v in profile.lids.items()}
+                      if "eyes" in self._parts else {})
         self._frame_filter = OneEuro(config.frame_filter)
         self._last_ms: int | None = None
         self._landmarker = None          # the shared landmark backend, once needed (False: not available)
@@ -537,7 +539,7 @@ class ColorTracker:
         units = (curves - measured.origin) @ np.array([[ax / u2, -ay / u2], [ay / u2, ax / u2]])
         fr = self._frame_filter(np.array([measured.origin, measured.axis]), dt, measured.unit)
         smooth = self._curve_filter(units, dt)
-        if self.profile.lids:
+        if self._lids:
             smooth[_LIDS, 1:3] = self._lid_filter(units[_LIDS, 1:3], dt)
         if len(self._shaped):
             shaped = units[self._shaped]
@@ -647,7 +649,7 @@ class ColorTracker:
             if x1 - x0 > 2 * m and y1 - y0 > 2 * m:
                 o = np.array([x0, y0], dtype=float)
                 curves_px[idx] = self._snakes(curves_px[idx] - o, snake_fields(C[y0:y1, x0:x1], 5)) + o
-        if self.profile.lids and "eyes" in self._parts:
+        if self._lids:
             # The performer's eyelid model reads the lids off the look of each eye (capture.lids).
             apply_lid_model(curves_px, crop, self._lids)
         if self.profile.shapes:

@@ -11,7 +11,7 @@ regression from the look of the face crop around the family to its curves, as th
 (:mod:`~facepuppet.capture.lids`) does for the lids. Each eye has one too (both lids and their corners): the
 rules read the eyes on the contrast C, whose weights the colour network predicts, and two networks trained on
 the same frames to nearly the same loss gave the demo 0.41 and 0.52 (a numeric difference of 1e-6 between two
-OpenCV builds set them apart); with the eyes' models both gave 0.38-0.39 (seeds 0-2).
+OpenCV builds set them apart); with the eyes' models both gave 0.37-0.41 (seeds 0-2).
 
 Geometry, for one family (:data:`FAMILIES`): its box is the bounding box of its curves in the layout as the
 tracker placed it on the crop (the face frame with the eyes' correction), widened by :data:`MARGINS` (shares
