@@ -6,11 +6,11 @@ import os
 
 import numpy as np
 
+from facepuppet._util.atomic import atomic_path
 from facepuppet.capture.curves import bezier_points
 from facepuppet.capture.features import FrameFeatures
 from facepuppet.capture.pose import default_camera
 from facepuppet.errors import FacepuppetError
-from facepuppet.io.atomic import atomic_path
 from facepuppet.io.frames import MediaSource, open_media
 from facepuppet.io.track import Track
 

@@ -15,11 +15,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from facepuppet._util.atomic import atomic_path
 from facepuppet.capture.color import DEFAULT_WEIGHTS, LipHue
 from facepuppet.capture.curves import CURVE_NAMES
 from facepuppet.capture.face import SkinModel
 from facepuppet.errors import FacepuppetError
-from facepuppet.io.atomic import atomic_path
 
 __all__ = [
     "PROFILE_VERSION",

@@ -296,7 +296,7 @@ def _write_video(path: Path, frames: np.ndarray, fps: float) -> None:
 
 
 def _write_marks(path: Path, marks: dict[str, int], spans: dict[str, tuple[int, int]]) -> None:
-    from facepuppet.io.atomic import atomic_path
+    from facepuppet._util.atomic import atomic_path
 
     lines = ["# frame,name  (written by facepuppet demo; times may also be given as 1.5s or 00:01.5)"]
     lines += [f"{frame},{name}" for name, frame in sorted(marks.items(), key=lambda kv: kv[1])]

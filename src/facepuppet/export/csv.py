@@ -30,8 +30,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from facepuppet._util.atomic import atomic_path
 from facepuppet.arkit import LLF_NAMES, arkit_parts, llf_name
-from facepuppet.io.atomic import atomic_path
 
 __all__ = ["write_weights_csv", "LLF_BLENDSHAPES", "LLF_HEAD_EYES", "llf_timecode", "head_angles",
            "arkit_columns"]

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from facepuppet._util.atomic import atomic_path
 from facepuppet.errors import FacepuppetError
-from facepuppet.io.atomic import atomic_path
 
 __all__ = ["PreviewWriter", "side_by_side", "open_preview", "write_preview"]
 

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from facepuppet.io.atomic import atomic_path
+from facepuppet._util.atomic import atomic_path
 
 __all__ = ["GltfBuilder", "ARRAY_BUFFER", "ELEMENT_ARRAY_BUFFER", "vertex_normals"]
 

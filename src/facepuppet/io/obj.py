@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from facepuppet._util.atomic import atomic_path
 from facepuppet.errors import FacepuppetError
-from facepuppet.io.atomic import atomic_path
 from facepuppet.io.character import Character
 
 __all__ = ["read_obj", "read_obj_character", "write_obj", "write_obj_character", "NEUTRAL_NAMES"]

@@ -28,9 +28,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from facepuppet._util.atomic import atomic_path
+from facepuppet._util.npz import check_format, read_npz
 from facepuppet.errors import FacepuppetError
-from facepuppet.io.atomic import atomic_path
-from facepuppet.io.npz import check_format, read_npz
 
 __all__ = ["Performer", "save_performer", "load_performer", "PERFORMER_FORMAT", "PERFORMER_VERSION"]
 

@@ -31,10 +31,10 @@ from typing import Any
 
 import numpy as np
 
+from facepuppet._util.atomic import atomic_path
+from facepuppet._util.npz import check_format, read_npz
 from facepuppet.errors import FacepuppetError
-from facepuppet.io.atomic import atomic_path
 from facepuppet.io.character import Character
-from facepuppet.io.npz import check_format, read_npz
 from facepuppet.io.performer import Performer
 
 __all__ = ["Rig", "Pairing", "pair_by_name", "fit_rig", "save_rig", "load_rig", "RIG_FORMAT", "RIG_VERSION"]

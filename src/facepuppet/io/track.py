@@ -13,9 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from facepuppet._util.atomic import atomic_path
+from facepuppet._util.npz import read_npz
 from facepuppet.errors import FacepuppetError
-from facepuppet.io.atomic import atomic_path
-from facepuppet.io.npz import read_npz
 
 __all__ = ["Track", "save_track", "load_track", "TRACK_KEYS"]
 

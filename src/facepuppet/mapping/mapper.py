@@ -8,8 +8,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from facepuppet._util.atomic import atomic_path
 from facepuppet.errors import FacepuppetError
-from facepuppet.io.atomic import atomic_path
 from facepuppet.mapping._methods import DEFAULT_METHOD, METHODS, SOLVERS
 from facepuppet.mapping._metric import nuisance_transform
 
@@ -447,7 +447,7 @@ class ExpressionMapper:
         FacepuppetError
             Missing, corrupt, truncated, wrong-kind or future-version file; the message names the file.
         """
-        from facepuppet.io.npz import read_npz
+        from facepuppet._util.npz import read_npz
 
         arrays = read_npz(path, "mapper file")
         if not arrays:

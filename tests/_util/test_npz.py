@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
+from facepuppet._util.npz import check_format, read_npz
 from facepuppet.errors import FacepuppetError
-from facepuppet.io.npz import check_format, read_npz
 
 
 def test_reads_every_array(tmp_path):

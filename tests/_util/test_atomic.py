@@ -1,6 +1,6 @@
 import pytest
 
-from facepuppet.io.atomic import atomic_path
+from facepuppet._util.atomic import atomic_path
 
 
 def test_success_renames_into_place(tmp_path):
