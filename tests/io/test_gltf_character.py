@@ -372,7 +372,7 @@ def test_glb_named_gltf_still_reads(tmp_path, rng):
 
 
 def test_validator_reports_errors(tmp_path, gltf_validator):  # noqa: F811
-    from facepuppet.io._glb import GltfBuilder
+    from facepuppet.io.glb import GltfBuilder
 
     b = GltfBuilder()
     acc = b.add_accessor(POS, target=34962, min_max=True)

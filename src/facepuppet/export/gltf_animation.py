@@ -17,8 +17,8 @@ import os
 import numpy as np
 
 from facepuppet import __version__
-from facepuppet.io._glb import GltfBuilder
 from facepuppet.io.character import Character
+from facepuppet.io.glb import GltfBuilder
 from facepuppet.io.gltf import add_character
 
 __all__ = ["write_animated_glb", "rotation_quaternions"]

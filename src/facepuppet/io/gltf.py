@@ -22,8 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from facepuppet.errors import FacepuppetError
-from facepuppet.io._glb import ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, GltfBuilder, vertex_normals
-from facepuppet.io.character import Character
+from facepuppet.io.character_type import Character
+from facepuppet.io.glb import ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, GltfBuilder, vertex_normals
 
 __all__ = ["read_gltf", "write_glb", "add_character", "quaternion_matrix"]
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from facepuppet._util.atomic import atomic_path
 from facepuppet.errors import FacepuppetError
-from facepuppet.io.character import Character
+from facepuppet.io.character_type import Character
 
 __all__ = ["read_obj", "read_obj_character", "write_obj", "write_obj_character", "NEUTRAL_NAMES"]
 
