@@ -78,10 +78,10 @@ def main(argv=None) -> int:
     from facepuppet.capture.tracking import track_media
     from facepuppet.io.frames import open_media
     from facepuppet.io.performer import Performer
-    from facepuppet.io.rig import fit_rig
-    from facepuppet.pipeline._tracking import TrackerOptions
     from facepuppet.pipeline.animate import AnimateConfig, animate
     from facepuppet.pipeline.calibrate import CalibrateConfig, calibrate_auto
+    from facepuppet.pipeline.rig import fit_rig
+    from facepuppet.pipeline.tracking import TrackerOptions
 
     character = ict_character(assets)
     col = {n: i for i, n in enumerate(BLENDSHAPE_NAMES)}

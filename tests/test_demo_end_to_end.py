@@ -72,8 +72,8 @@ def test_demo_csv_header_and_rows(demo):
 
 
 def test_demo_track_and_rig_reload(demo):
-    from facepuppet.io.rig import load_rig
     from facepuppet.io.track import load_track
+    from facepuppet.pipeline.rig import load_rig
 
     track = load_track(demo.files["track.npz"])
     rig = load_rig(demo.files["rig.npz"])
@@ -221,7 +221,7 @@ def test_animate_from_a_track_writes_valid_glb_and_csv(tmp_path, demo_rig_and_tr
 
 
 def test_rig_of_other_feature_points_is_refused(tmp_path, capsys, demo_rig_and_track):
-    from facepuppet.io.rig import Rig, load_rig, save_rig
+    from facepuppet.pipeline.rig import Rig, load_rig, save_rig
 
     rig_path, track = demo_rig_and_track
     rig = load_rig(rig_path)
@@ -266,8 +266,8 @@ def test_calibrate_with_marks_on_a_shared_clip(assets, face_landmarker, tmp_path
 def test_interactive_calibration_with_a_video_for_camera(assets, face_landmarker):
     from facepuppet.demo.toy import toy_character
     from facepuppet.io.character import Character
-    from facepuppet.pipeline._tracking import TrackerOptions
     from facepuppet.pipeline.calibrate import CalibrateConfig, calibrate_interactive
+    from facepuppet.pipeline.tracking import TrackerOptions
 
     clip = assets / "video" / "performer_a.mp4"
     need(clip.is_file(), f"{clip} is missing")

@@ -39,7 +39,7 @@ def test_round_trip_with_noise(tmp_path, rng):
 
 def test_round_trip_with_nuisance_and_the_rig_discounts_it(tmp_path, rng):
     from facepuppet.io.character import Character
-    from facepuppet.io.rig import fit_rig
+    from facepuppet.pipeline.rig import fit_rig
 
     perf = make_performer(rng)
     nuisance = perf.neutral[None] + rng.normal(scale=0.05, size=(12, 5, 3))

@@ -1,12 +1,11 @@
-"""Which tracker the pipeline builds for a medium (pipeline._tracking)."""
+"""Which tracker the pipeline builds for a medium (pipeline.tracking)."""
 
 import cv2
 import numpy as np
 import pytest
 
 from facepuppet.errors import FacepuppetError
-from facepuppet.pipeline import _tracking
-from facepuppet.pipeline._tracking import TrackerOptions, get_track
+from facepuppet.pipeline.tracking import TrackerOptions, get_track, tracker_kwargs
 
 
 class _Recorder:
@@ -43,4 +42,4 @@ def test_a_photograph_is_tracked_in_image_mode_a_video_in_video_mode(tmp_path, m
     assert _run(monkeypatch, still, "mediapipe") == {"model_path": "m.task", "running_mode": "image"}
     assert _run(monkeypatch, clip, "mediapipe") == {"model_path": "m.task"}
     assert _run(monkeypatch, still, "color") == {}
-    assert _tracking.tracker_kwargs(TrackerOptions(backend="color", profile="p.npz")) == {"profile": "p.npz"}
+    assert tracker_kwargs(TrackerOptions(backend="color", profile="p.npz")) == {"profile": "p.npz"}

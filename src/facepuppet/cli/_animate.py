@@ -32,10 +32,10 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from facepuppet.pipeline._tracking import TrackerOptions
     from facepuppet.pipeline.animate import AnimateConfig, animate
     from facepuppet.pipeline.gain import parse_gain
     from facepuppet.pipeline.smoothing import parse_smoothing
+    from facepuppet.pipeline.tracking import TrackerOptions
 
     if not (args.output or args.csv or args.preview):
         raise ValueError("nothing to write: give -o OUT.glb, --csv OUT.csv or --preview OUT.mp4")

@@ -41,7 +41,7 @@ def register(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from facepuppet.pipeline import calibrate as cal
-    from facepuppet.pipeline._tracking import TrackerOptions
+    from facepuppet.pipeline.tracking import TrackerOptions
 
     config = cal.CalibrateConfig(
         tracker=TrackerOptions(backend=args.backend, profile=args.profile, model=args.model,

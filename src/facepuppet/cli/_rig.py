@@ -16,7 +16,8 @@ def register(subparsers) -> None:
     p.add_argument("--character", required=True, metavar="CHARACTER",
                    help=".glb / .gltf with morph targets, or a folder of OBJ files (neutral + one per key-model)")
     p.add_argument("-o", "--output", required=True, metavar="RIG.npz", help="rig file to write")
-    p.add_argument("--method", default=None, help="mapping method by name (default: the most accurate)")
+    p.add_argument("--method", default=None,
+                   help="mapping method by name (default: the most accurate); the one fitted is printed")
     p.add_argument("--neutral", default=None, metavar="NAME",
                    help="OBJ folder: the neutral OBJ's file name (default neutral.obj)")
     p.add_argument("--mesh", default=None, metavar="NAME", help="glTF: read only this mesh")
@@ -26,7 +27,7 @@ def register(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     from facepuppet.io.character import load_character
     from facepuppet.io.performer import load_performer
-    from facepuppet.io.rig import fit_rig, save_rig
+    from facepuppet.pipeline.rig import fit_rig, save_rig
 
     performer = load_performer(args.performer)
     character = load_character(args.character, neutral=args.neutral, mesh=args.mesh)
@@ -40,6 +41,6 @@ def run(args: argparse.Namespace) -> int:
     save_rig(args.output, rig)
     v = len(character.neutral)
     print(f"rig: {len(pairing.names)} key expressions paired with key-models of {character.name!r} "
-          f"({v} vertices, {len(character.names)} key-models); method {args.method or 'default'}; "
+          f"({v} vertices, {len(character.names)} key-models); method {rig.mapper.method}; "
           f"wrote {args.output}")
     return 0

@@ -322,11 +322,11 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
     from facepuppet.demo.toy import toy_character, toy_colors
     from facepuppet.io.gltf import write_glb
     from facepuppet.io.performer import load_performer
-    from facepuppet.io.rig import fit_rig, save_rig
     from facepuppet.io.track import save_track
-    from facepuppet.pipeline._tracking import TrackerOptions
     from facepuppet.pipeline.animate import AnimateConfig, animate
     from facepuppet.pipeline.calibrate import CalibrateConfig, calibrate_marks, save_examples
+    from facepuppet.pipeline.rig import fit_rig, save_rig
+    from facepuppet.pipeline.tracking import TrackerOptions
 
     config = config or DemoConfig()
     if config.tracker == "mediapipe":   # a missing package or model is told before anything is rendered

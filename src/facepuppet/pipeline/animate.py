@@ -24,9 +24,9 @@ import numpy as np
 
 from facepuppet.errors import FacepuppetError
 from facepuppet.io.track import Track
-from facepuppet.pipeline._tracking import TrackerOptions, get_track
 from facepuppet.pipeline.gain import GainConfig, apply_gain
 from facepuppet.pipeline.smoothing import SmoothingConfig, smooth
+from facepuppet.pipeline.tracking import TrackerOptions, get_track
 
 __all__ = ["AnimateConfig", "Animation", "map_track", "animate", "head_rotation_in_character",
            "check_rig_matches"]
@@ -114,7 +114,7 @@ def map_track(rig, track: Track, config: AnimateConfig | None = None, *, rig_lab
 
     Parameters
     ----------
-    rig : facepuppet.io.rig.Rig
+    rig : facepuppet.pipeline.rig.Rig
     track : Track
     config : AnimateConfig, optional
     rig_label : str
@@ -140,7 +140,7 @@ def map_track(rig, track: Track, config: AnimateConfig | None = None, *, rig_lab
 
 def _load_rig(rig):
     if isinstance(rig, (str, os.PathLike)):
-        from facepuppet.io.rig import load_rig
+        from facepuppet.pipeline.rig import load_rig
 
         return load_rig(rig), str(rig)
     return rig, "rig"

@@ -47,7 +47,7 @@ import numpy as np
 from facepuppet.arkit import arkit_parts
 from facepuppet.errors import FacepuppetError
 from facepuppet.io.track import Track
-from facepuppet.pipeline._tracking import TrackerOptions, get_track, tracker_kwargs
+from facepuppet.pipeline.tracking import TrackerOptions, get_track, tracker_kwargs
 
 __all__ = [
     "CalibrateConfig",

@@ -14,7 +14,7 @@ from facepuppet.cli import main
 from facepuppet.errors import FacepuppetError
 from facepuppet.io.character import Character, save_character
 from facepuppet.io.performer import Performer, save_performer
-from facepuppet.io.rig import RIG_FORMAT, Rig, fit_rig, load_rig, pair_by_name, save_rig
+from facepuppet.pipeline.rig import RIG_FORMAT, Rig, fit_rig, load_rig, pair_by_name, save_rig
 
 
 class StandIn:
@@ -22,6 +22,10 @@ class StandIn:
 
     def __init__(self, arrays):
         self.a = arrays
+
+    @property
+    def method(self):
+        return str(self.a["method"])
 
     @classmethod
     def fit(cls, source_base, source_examples, target_base, target_examples, names=None, method="default"):
@@ -198,8 +202,10 @@ def test_real_mapper_end_to_end(tmp_path, rng, capsys, method):
     assert main(["rig", "--performer", str(tmp_path / "examples.npz"), "--character",
                  str(tmp_path / "toy.glb"), "-o", str(tmp_path / "rig.npz"), *extra]) == 0
     rig = load_rig(tmp_path / "rig.npz")
-    if method is not None:
-        assert rig.mapper.method == method
+    from facepuppet.mapping import DEFAULT_METHOD
+
+    assert rig.mapper.method == (method or DEFAULT_METHOD)
+    assert f"method {method or DEFAULT_METHOD};" in capsys.readouterr().out   # the fitted method, by name
     # each paired example maps to its own key-model, the neutral to the neutral
     for i, name in enumerate(rig.names):
         w = rig.mapper.weights(performer.examples[performer.names.index(name)])

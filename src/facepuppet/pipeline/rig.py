@@ -1,6 +1,11 @@
-"""The rig file (``RIG.npz``, written by ``facepuppet rig``): a fitted mapper with its character and pairing.
+"""The rig: key expressions paired with key-models by name, the mapper fitted on the pairs, and its file.
 
-A NumPy ``.npz`` archive read without pickle:
+:func:`fit_rig` pairs a :class:`~facepuppet.io.performer.Performer` with a
+:class:`~facepuppet.io.character.Character` (:func:`pair_by_name`) and fits an
+:class:`~facepuppet.mapping.ExpressionMapper`; :func:`save_rig` / :func:`load_rig` write and read the rig
+file (``RIG.npz``, written by ``facepuppet rig``), a fitted mapper with its character and pairing.
+
+The rig file is a NumPy ``.npz`` archive read without pickle:
 
 =========================  ==========  ================================================================
 key                        shape       meaning
@@ -146,7 +151,7 @@ def fit_rig(performer: Performer, character: Character, *, method: str | None = 
         options["method"] = method
     params = inspect.signature(ExpressionMapper.fit).parameters
     if "names" in params or any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):
-        options["names"] = pairing.names  # the mapper names examples in its diagnostics
+        options["names"] = pairing.names  # a mapper that takes names uses them in its diagnostics
     if performer.noise is not None:
         options["point_scale"] = performer.noise  # coordinates the tracker follows poorly count less
     if performer.nuisance is not None:

@@ -1,4 +1,4 @@
-"""One place where the pipeline asks the capture stage for a track (keeps calibrate and animate thin)."""
+"""Where the pipeline asks the capture stage for a track: which tracker (:class:`TrackerOptions`), made how."""
 
 from __future__ import annotations
 
