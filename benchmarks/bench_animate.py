@@ -79,7 +79,7 @@ def main(argv=None) -> int:
     from facepuppet.io.frames import open_media
     from facepuppet.io.performer import Performer
     from facepuppet.pipeline.animate import AnimateConfig, animate
-    from facepuppet.pipeline.calibrate import CalibrateConfig, calibrate_auto
+    from facepuppet.pipeline.examples import ExamplesConfig, from_auto
     from facepuppet.pipeline.rig import fit_rig
     from facepuppet.pipeline.tracking import TrackerOptions
 
@@ -105,8 +105,8 @@ def main(argv=None) -> int:
         for backend in ("color", "mediapipe"):
             opts = TrackerOptions(backend=backend, profile=str(profile_path) if backend == "color" else None,
                                   model=model, progress=False)
-            cal = calibrate_auto(clip, character.names, config=CalibrateConfig(tracker=opts), scores_track=ref,
-                                 track=ref if backend == "mediapipe" else None)
+            cal = from_auto(clip, character.names, config=ExamplesConfig(tracker=opts), scores_track=ref,
+                            track=ref if backend == "mediapipe" else None)
             rig, _ = fit_rig(Performer(cal.neutral, cal.examples, cal.names, cal.point_names, cal.noise,
                                        cal.nuisance), character)
             dt = np.inf

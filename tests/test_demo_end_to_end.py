@@ -266,7 +266,7 @@ def test_calibrate_with_marks_on_a_shared_clip(assets, face_landmarker, tmp_path
 def test_interactive_calibration_with_a_video_for_camera(assets, face_landmarker):
     from facepuppet.demo.toy import toy_character
     from facepuppet.io.character import Character
-    from facepuppet.pipeline.calibrate import CalibrateConfig, calibrate_interactive
+    from facepuppet.pipeline.examples import ExamplesConfig, from_camera
     from facepuppet.pipeline.tracking import TrackerOptions
 
     clip = assets / "video" / "performer_a.mp4"
@@ -280,13 +280,13 @@ def test_interactive_calibration_with_a_video_for_camera(assets, face_landmarker
         shown.append(picture.shape)
         return presses.get(k, -1)
 
-    cfg = CalibrateConfig(tracker=TrackerOptions(backend="mediapipe", model=str(face_landmarker), progress=False))
-    result = calibrate_interactive(f"camera:{clip}", two, config=cfg, keys=keys)
+    cfg = ExamplesConfig(tracker=TrackerOptions(backend="mediapipe", model=str(face_landmarker), progress=False))
+    result = from_camera(f"camera:{clip}", two, config=cfg, keys=keys)
     assert result.names == two.names
     assert result.frames["neutral"][0] >= 5 and result.frames[two.names[1]][0] >= 120
     assert shown and shown[0][1] > shown[0][0]                # camera frame beside the key-model's picture
 
     with pytest.raises(Exception, match="cancelled"):
-        calibrate_interactive(f"camera:{clip}", two, config=cfg, keys=lambda k, p: ord("q") if k == 3 else -1)
+        from_camera(f"camera:{clip}", two, config=cfg, keys=lambda k, p: ord("q") if k == 3 else -1)
     with pytest.raises(Exception, match="stopped before"):
-        calibrate_interactive(f"camera:{clip}", two, config=cfg, keys=lambda k, p: -1)
+        from_camera(f"camera:{clip}", two, config=cfg, keys=lambda k, p: -1)

@@ -11,14 +11,15 @@ def register(subparsers) -> None:
         description="Track the performance, map every frame with the rig, smooth, apply the expression gain "
                     "and write the animated character (GLB), optionally its weights as CSV (Live Link Face "
                     "layout for ARKit names) and a side-by-side preview video.")
-    p.add_argument("media", metavar="MEDIA", help="performance video, image folder or camera:N")
+    p.add_argument("media", metavar="MEDIA", help="video of the performance, image folder or camera:N")
     p.add_argument("--rig", required=True, metavar="RIG.npz", help="rig file (facepuppet rig)")
     p.add_argument("-o", "--output", metavar="OUT.glb", help="animated character to write")
     p.add_argument("--csv", metavar="OUT.csv", help="also write the weights as CSV")
     p.add_argument("--preview", metavar="OUT.mp4", help="also write a side-by-side preview video")
     p.add_argument("--backend", default="color", choices=("color", "mediapipe"),
-                   help="tracker (default color, the paper's); use the one the rig was calibrated with")
-    p.add_argument("--profile", metavar="PROFILE", help="colour tracker's performer profile")
+                   help="tracker (default color, the paper's); use the one the key expressions were captured "
+                        "with")
+    p.add_argument("--profile", metavar="PROFILE.npz", help="performer profile of the colour tracker")
     p.add_argument("--model", metavar="TASK", help="MediaPipe face_landmarker.task "
                    "(default: $FACEPUPPET_FACE_LANDMARKER)")
     p.add_argument("--track", metavar="TRACK.npz", help="reuse a track of MEDIA instead of tracking again")

@@ -1,4 +1,4 @@
-"""`facepuppet calibrate`: make a performer's key expressions from a marked video, automatically, or live."""
+"""`facepuppet calibrate`: capture the performer's key expressions from a marked video, automatically, or live."""
 
 from __future__ import annotations
 
@@ -6,31 +6,40 @@ import argparse
 import sys
 from dataclasses import replace
 
+#: How a camera is named wherever a medium is (as in ``track`` and ``animate``).
+CAMERA_PREFIX = "camera:"
+
 
 def register(subparsers) -> None:
     p = subparsers.add_parser(
-        "calibrate", help="make the performer's key expressions (for facepuppet rig)",
-        description="Make the performer's neutral face and key expressions (feature points) from footage: "
-                    "a video with a marks file (--marks), a video picked automatically by MediaPipe's "
-                    "blendshape scores for an ARKit-named character (--auto), or a camera, interactively "
-                    "(--camera). Marks file: one 'WHEN,NAME' per line; WHEN is seconds ('1.5s'), a clock "
-                    "time ('00:01.5') or a frame number ('45'); NAME is 'neutral' or a key-model name.")
-    p.add_argument("media", nargs="?", metavar="MEDIA", help="calibration video, image folder")
-    p.add_argument("-o", "--output", required=True, metavar="EXAMPLES.npz", help="key expressions file to write")
-    how = p.add_mutually_exclusive_group(required=True)
+        "calibrate", help="capture the performer's key expressions (for facepuppet rig)",
+        description="Capture the performer's neutral face and key expressions (feature points) for the "
+                    "character's key-models: from a video with a marks file (--marks), from a video picked "
+                    "automatically by MediaPipe's blendshape scores for an ARKit-named character (--auto), or "
+                    "live from a camera (MEDIA camera:N, or --camera N). Marks file: one 'WHEN,NAME' per line; "
+                    "WHEN is seconds ('1.5s'), a clock time ('00:01.5') or a frame number ('45'); NAME is "
+                    "'neutral' or a key-model name. --train-profile first trains the colour tracker's "
+                    "performer profile on MEDIA.")
+    p.add_argument("media", nargs="?", metavar="MEDIA",
+                   help="video of the key expressions, image folder, or camera:N")
+    p.add_argument("-o", "--output", required=True, metavar="EXAMPLES.npz",
+                   help="key expressions file to write (for facepuppet rig --performer)")
+    how = p.add_mutually_exclusive_group()
     how.add_argument("--marks", metavar="MARKS.csv", help="marks file naming the expression at times or frames")
     how.add_argument("--auto", action="store_true",
                      help="pick the frames by MediaPipe's blendshape scores (needs --character with ARKit names)")
     how.add_argument("--camera", metavar="N",
-                     help="capture live from camera N (or camera:VIDEO, a video standing in for the camera)")
+                     help="capture live from camera N, as MEDIA camera:N does (camera:VIDEO: a video standing "
+                          "in for the camera)")
     p.add_argument("--character", metavar="CHARACTER",
-                   help="the character (.glb or OBJ folder) whose key-models to make expressions for")
+                   help="the character (.glb or OBJ folder) whose key-models to capture key expressions for")
     p.add_argument("--backend", default="color", choices=("color", "mediapipe"),
                    help="tracker making the feature points; use the one you will animate with (default color)")
-    p.add_argument("--profile", metavar="PROFILE", help="colour tracker's performer profile")
-    p.add_argument("--make-profile", metavar="PROFILE.npz",
+    p.add_argument("--profile", metavar="PROFILE.npz", help="performer profile of the colour tracker")
+    p.add_argument("--train-profile", metavar="PROFILE.npz", dest="train_profile",
                    help="first train the colour tracker's performer profile on MEDIA, labelled by MediaPipe, "
                         "save it here and use it")
+    p.add_argument("--make-profile", metavar="PROFILE.npz", dest="train_profile", help=argparse.SUPPRESS)
     p.add_argument("--model", metavar="TASK", help="MediaPipe face_landmarker.task "
                    "(default: $FACEPUPPET_FACE_LANDMARKER)")
     p.add_argument("--track", metavar="TRACK.npz", help="reuse a track of MEDIA made by facepuppet track")
@@ -39,11 +48,28 @@ def register(subparsers) -> None:
     p.set_defaults(run=run)
 
 
+def _camera(args: argparse.Namespace) -> str | None:
+    """The camera to capture from (``camera:N``), or None for a recorded video; checks the combinations."""
+    media_is_camera = bool(args.media) and args.media.startswith(CAMERA_PREFIX)
+    if args.camera is not None:
+        return args.camera if args.camera.startswith(CAMERA_PREFIX) else f"{CAMERA_PREFIX}{args.camera}"
+    if media_is_camera:
+        if args.marks or args.auto:
+            raise ValueError(f"MEDIA {args.media}: --marks and --auto need a recorded video, not a camera")
+        return args.media
+    if not (args.marks or args.auto):
+        raise ValueError("say how to capture the key expressions: --marks MARKS.csv, --auto, or a camera "
+                         "(MEDIA camera:N or --camera N)")
+    return None
+
+
 def run(args: argparse.Namespace) -> int:
-    from facepuppet.pipeline import calibrate as cal
+    from facepuppet.io.performer import save_performer
+    from facepuppet.pipeline import examples
     from facepuppet.pipeline.tracking import TrackerOptions
 
-    config = cal.CalibrateConfig(
+    camera = _camera(args)
+    config = examples.ExamplesConfig(
         tracker=TrackerOptions(backend=args.backend, profile=args.profile, model=args.model,
                                progress=False if args.no_progress else None),
         window=args.window)
@@ -58,35 +84,37 @@ def run(args: argparse.Namespace) -> int:
 
         track = load_track(args.track)
     labels = None
-    if args.make_profile:
-        if not args.media:
-            raise ValueError("--make-profile needs MEDIA (a clip of the performer)")
-        labels = cal.make_profile(args.media, args.make_profile, model=args.model,
-                                  progress=False if args.no_progress else None)
-        config = cal.CalibrateConfig(tracker=replace(config.tracker, profile=args.make_profile),
-                                     window=args.window)
-        print(f"calibrate: trained the colour tracker's profile on {args.media}; wrote {args.make_profile}")
-    if args.camera is not None:
+    if args.train_profile:
+        if not args.media or args.media.startswith(CAMERA_PREFIX):
+            raise ValueError("--train-profile needs MEDIA, a recorded clip of the performer")
+        from facepuppet.pipeline.profile import train_profile_on_media
+
+        labels = train_profile_on_media(args.media, args.train_profile, model=args.model,
+                                        progress=False if args.no_progress else None)
+        config = examples.ExamplesConfig(tracker=replace(config.tracker, profile=args.train_profile),
+                                         window=args.window)
+        print(f"calibrate: trained the colour tracker's performer profile on {args.media}; "
+              f"wrote {args.train_profile}")
+    if camera is not None:
         if character is None:
-            raise ValueError("--camera needs --character (its key-models are shown to copy)")
-        cam = args.camera if args.camera.startswith("camera:") else f"camera:{args.camera}"
-        result = cal.calibrate_interactive(cam, character, config=config)
-        source = cam
+            raise ValueError(f"{camera} needs --character (its key-models are shown to copy)")
+        result = examples.from_camera(camera, character, config=config)
+        source = camera
     else:
         if not args.media:
-            raise ValueError("MEDIA (the calibration video) is required with --marks and --auto")
+            raise ValueError("MEDIA (the video of the key expressions) is required with --marks and --auto")
         source = args.media
         if args.auto:
             if character is None:
                 raise ValueError("--auto needs --character (its ARKit key-model names say what to look for)")
             scores = track if track is not None and track.extras and "blendshapes" in track.extras else labels
-            result = cal.calibrate_auto(args.media, character.names, config=config, scores_track=scores,
+            result = examples.from_auto(args.media, character.names, config=config, scores_track=scores,
                                         track=track if track is not None and track.backend == args.backend
                                         else None)
         else:
-            result = cal.calibrate_marks(args.media, args.marks, config=config, track=track,
+            result = examples.from_marks(args.media, args.marks, config=config, track=track,
                                          names=character.names if character is not None else None)
-    cal.save_examples(args.output, result)
+    save_performer(args.output, result)
     left_out = [w[len("left out "):] for w in result.warnings if w.startswith("left out ")]
     for w in result.warnings:
         if not w.startswith("left out "):

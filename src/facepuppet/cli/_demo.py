@@ -10,7 +10,7 @@ def register(subparsers) -> None:
 
     p = subparsers.add_parser(
         "demo", help="run the built-in demo (no data, network or camera needed)",
-        description="Render a digital performer, track it, calibrate its key expressions, rig the built-in Toy "
+        description="Render a digital performer, track it, capture its key expressions, rig the built-in Toy "
                     "character, animate it from a scripted performance, write every file into a folder and "
                     "print the error against ground truth.")
     p.add_argument("-o", "--output", default="facepuppet-demo", metavar="FOLDER",

@@ -21,8 +21,8 @@ def register(subparsers) -> None:
     p.add_argument("--backend", default="color", choices=("color", "mediapipe"),
                    help="color: the paper's colour tracker (default); mediapipe: the landmark backend "
                         "(optional extra)")
-    p.add_argument("--profile", metavar="PERFORMER", help="colour tracker's performer profile (facepuppet "
-                   "calibrate makes one)")
+    p.add_argument("--profile", metavar="PROFILE.npz", help="performer profile of the colour tracker (facepuppet "
+                   "calibrate --train-profile makes one)")
     p.add_argument("--model", metavar="PATH", help="MediaPipe face_landmarker.task (default: "
                    "$FACEPUPPET_FACE_LANDMARKER)")
     p.add_argument("--preview", metavar="OVERLAY.mp4", help="also write the frames with the tracked curves and "

@@ -321,10 +321,10 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
     from facepuppet.demo.script import calibration_script, performance_script
     from facepuppet.demo.toy import toy_character, toy_colors
     from facepuppet.io.gltf import write_glb
-    from facepuppet.io.performer import load_performer
+    from facepuppet.io.performer import load_performer, save_performer
     from facepuppet.io.track import save_track
     from facepuppet.pipeline.animate import AnimateConfig, animate
-    from facepuppet.pipeline.calibrate import CalibrateConfig, calibrate_marks, save_examples
+    from facepuppet.pipeline.examples import ExamplesConfig, from_marks
     from facepuppet.pipeline.rig import fit_rig, save_rig
     from facepuppet.pipeline.tracking import TrackerOptions
 
@@ -403,9 +403,9 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
     cal_track = track_video(files["calibration.mp4"], cal_curves)
     t = step("track", t)
     toy = toy_character()
-    examples = calibrate_marks(files["calibration.mp4"], files["calibration-marks.csv"], names=toy.names,
-                               config=CalibrateConfig(), track=cal_track)
-    save_examples(files["performer.npz"], examples)
+    examples = from_marks(files["calibration.mp4"], files["calibration-marks.csv"], names=toy.names,
+                          config=ExamplesConfig(), track=cal_track)
+    save_performer(files["performer.npz"], examples)
     rig, _pairing = fit_rig(load_performer(files["performer.npz"]), toy)
     save_rig(files["rig.npz"], rig)
     write_glb(files["toy.glb"], toy)

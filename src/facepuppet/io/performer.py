@@ -24,7 +24,7 @@ Names are unique, non-empty and compared exactly (case-sensitive). All values ar
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -52,12 +52,18 @@ class Performer:
     point_names : tuple of P str, or None
     noise : (P, D) float, or None
         Noise scale of each feature coordinate as the tracker gives it (positive; see
-        :func:`facepuppet.pipeline.calibrate.coordinate_noise`): the mapping divides displacements by it.
+        :func:`facepuppet.mapping.noise.coordinate_noise`): the mapping divides displacements by it.
         None: all coordinates alike.
     nuisance : (K, P, D) float, or None
         Feature points of frames whose motion away from ``neutral`` is no expression (the neutral face while
         the head moves, or what the tracker adds that no key expression explains): the mapping discounts
         the directions they move in (the mapper's ``nuisance`` option).
+    frames : dict of str -> (int, int)
+        Where the key expressions came from: for each name (``neutral`` included), the frames
+        ``[start, stop)`` of the footage that were averaged. Not stored in the file (empty when loaded).
+    warnings : tuple of str
+        What the checks of :mod:`facepuppet.pipeline.examples.checks` found, and the key-models left out
+        (messages starting with ``"left out "``). Not stored in the file (empty when loaded).
     """
 
     neutral: np.ndarray
@@ -66,6 +72,8 @@ class Performer:
     point_names: tuple[str, ...] | None = None
     noise: np.ndarray | None = None
     nuisance: np.ndarray | None = None
+    frames: dict[str, tuple[int, int]] = field(default_factory=dict, compare=False)
+    warnings: tuple[str, ...] = field(default=(), compare=False)
 
     def __post_init__(self) -> None:
         n, e = np.shape(self.neutral), np.shape(self.examples)

@@ -1,10 +1,13 @@
-"""Expression mapping (paper §4-5): PCA parameter space, cardinal basis functions and better solvers.
+"""Expression mapping (paper §4-5): PCA parameter space, cardinal basis functions and bounded solvers.
 
 ``ExpressionMapper.fit(...)`` builds a mapper from paired examples, ``weights(points)`` evaluates it per frame
 and ``synthesize(weights)`` blends the character (Eq. 14). The method names are listed in :data:`METHODS`.
+:mod:`facepuppet.mapping.noise` makes the mapper's ``point_scale`` and ``nuisance`` from tracked frames.
 """
 
 from facepuppet.mapping._methods import DEFAULT_METHOD, METHODS
 from facepuppet.mapping.mapper import FORMAT_VERSION, ExpressionMapper, MapperOptions
+from facepuppet.mapping.noise import coordinate_noise, head_turn_nuisance, noise_from_examples
 
-__all__ = ["ExpressionMapper", "MapperOptions", "METHODS", "DEFAULT_METHOD", "FORMAT_VERSION"]
+__all__ = ["ExpressionMapper", "MapperOptions", "METHODS", "DEFAULT_METHOD", "FORMAT_VERSION", "coordinate_noise",
+           "noise_from_examples", "head_turn_nuisance"]

@@ -37,8 +37,7 @@ class BoundedSolver:
        own covariance shrunk towards a multiple of the identity (``shrinkage`` γ = 0.7):
        ``Σ = (1 − γ) diag(s²) + γ mean(s²) I``; coordinates are scaled by ``q = Σ^(-1/2)``. γ = 1 is plain
        Euclidean least squares on the points; γ = 0 is full whitening (Mahalanobis), which trusts weakly
-       moving examples as much as strong ones and amplifies noise. The error is flat for γ in 0.5–1 on ICT
-       performers, characters and three different key sets; 0.7 sits in the middle of it.
+       moving examples as much as strong ones and amplifies noise.
 
     Per frame, with displacement vector d (Eq. 13: p = F d), ``H = (P q)(P q)ᵀ``:
 
@@ -49,18 +48,15 @@ class BoundedSolver:
        (``sin θ = ‖d − Fᵀ F d‖ / ‖d‖``). A frame the examples explain (every blend of them, each example,
        the neutral face) is solved without shrinkage, hence reproduced exactly; a frame carrying motion
        the examples cannot express (another expression, tracking noise) has its weights damped, which is
-       where least squares would otherwise turn that motion into spurious weights. ``angle_ridge`` = 0.3
-       (flat optimum between 0.2 and 0.4 on the trials above; 0 is plain bounded least squares).
+       where least squares would otherwise turn that motion into spurious weights (``angle_ridge`` = 0 is
+       plain bounded least squares).
        The noise ridge μ (``noise_ridge`` c, method ``adaptive``) is the Gaussian prior of a Bayesian
        regression: weights with prior standard deviation τ = 1/√c under per-coordinate noise of variance σ²
        give ``μ = σ² / τ² = c σ̂²(d)``, with σ² estimated per frame from the part of d the examples cannot
        express, ``σ̂² = ‖d − Fᵀ F d‖² / (N − M)`` (N coordinates, M examples). Absolute rather than relative
        to H_ii, it shrinks most the examples that barely move the points, whose weights noise perturbs most;
-       it vanishes on the examples' span, so the guarantees below still hold. ``adaptive``: c = 4 with
-       ``angle_ridge`` 0.2, chosen on benchmarks/eval_mapping_variants.py (seed 0) among c in 4–32 and angle
-       ridges 0–0.3, confirmed on another 80 scenes (seed 1): mean ratio to the source-oracle 1.16 against
-       1.19 for ``bounded``, worst case 3.6 against 4.0. On dense performances (many expressions at once,
-       where the unexplained motion is model error rather than noise) it is up to 1 % worse than ``bounded``.
+       it vanishes on the examples' span, so the guarantees below still hold. The values of γ, the angle
+       ridge and c of each method (:data:`METHODS`) are chosen with ``benchmarks/eval_mapping_variants.py``.
     4. Optional radial correction (``correct``, paper §5.3 in spirit), needed only with a constant
        ``ridge`` > 0, which moves the examples off their exact weights: a cubic B-spline bump centred on
        each example, of radius α_j = distance to the nearest other example or to the neutral face, adds back
@@ -150,7 +146,7 @@ class BoundedSolver:
 
     @classmethod
     def from_arrays(cls, a: dict[str, np.ndarray]) -> BoundedSolver:
-        # Files written before the noise ridge existed have none (0: the same mapping as then).
+        # A file without ``noise_ridge`` holds a method without the noise ridge (μ = 0).
         return cls(a["F"], a["q"], a["P"], a["bounds"], float(a["ridge"]), float(a["angle_ridge"]), a["alpha"],
                    a["C"], float(a.get("noise_ridge", 0.0)))
 
@@ -233,7 +229,7 @@ METHODS: dict[str, Method] = {
     "bounded": Method(BoundedSolver, {"bounds": (0.0, 1.0), "ridge": 0.0, "angle_ridge": 0.3, "shrinkage": 0.7,
                                       "correct": None},
                       "bounded least squares in a shrinkage-whitened PCA space, ridge growing with the frame's "
-                      "angle to the examples' span (the default before 'adaptive')"),
+                      "angle to the examples' span"),
     "ridge": Method(BoundedSolver, {"bounds": (0.0, 1.0), "ridge": 0.1, "angle_ridge": 0.0, "shrinkage": 0.7,
                                     "correct": None},
                     "bounded least squares with a constant ridge, radial correction back to exact examples"),

@@ -149,12 +149,11 @@ class ExpressionMapper:
         prior (standard deviation 0.5) weighed against it, so noisy frames shrink most the weights of the
         examples that barely move the points. Same guarantees as ``bounded``.
     ``"bounded"``
-        The default before ``adaptive``, kept so that older rigs mean the same. Least squares of the frame's
-        feature displacement on the examples' displacements, in the PCA parameter space with a
-        shrinkage-whitened metric (30 % the examples' own covariance, 70 % isotropic), weights kept in [0, 1],
-        and a ridge relative to each example's strength
-        that grows with the sine of the angle between the frame and the examples' span: motion the examples
-        cannot express is damped instead of turned into spurious weights.
+        Least squares of the frame's feature displacement on the examples' displacements, in the PCA
+        parameter space with a shrinkage-whitened metric (30 % the examples' own covariance, 70 % isotropic),
+        weights kept in [0, 1], and a ridge relative to each example's strength that grows with the sine of
+        the angle between the frame and the examples' span: motion the examples cannot express is damped
+        instead of turned into spurious weights.
         Guarantees: neutral → all-zero weights, example i → e_i, every blend of the examples with weights
         in [0, 1] reproduced exactly, continuous in the input.
     ``"ridge"``
