@@ -24,6 +24,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="facepuppet",
         description="Performance-driven facial animation from one ordinary camera.",
+        epilog="The journey: 'calibrate' captures the performer's key expressions (and with --train-profile "
+               "trains the colour tracker's performer profile), 'rig' pairs them with the character's "
+               "key-models and fits the mapping, 'animate' maps a performance onto the character. 'track' "
+               "writes the tracked features of any video; 'demo' runs the whole chain on built-in data.",
     )
     parser.add_argument("--version", action="version", version=f"facepuppet {__version__}")
     parser.add_argument("-v", "--verbose", action="store_true", help="log what happens")

@@ -8,7 +8,7 @@ import sys
 
 def register(subparsers) -> None:
     p = subparsers.add_parser(
-        "rig", help="fit the mapping from a performer's key expressions to a character",
+        "rig", help="fit the rig: the mapping from the performer's key expressions to a character's key-models",
         description="Pair the performer's key expressions with the character's key-models of the same name "
                     "(exact, case-sensitive), fit the expression mapper on the pairs and save the rig.")
     p.add_argument("--performer", required=True, metavar="EXAMPLES.npz",

@@ -12,7 +12,7 @@ log = logging.getLogger(__name__)
 
 def register(subparsers) -> None:
     p = subparsers.add_parser(
-        "track", help="track the face in a video, image or image folder",
+        "track", help="track the face in a video, image, image folder or camera:N",
         description="Track the performer's facial features (curves, feature points, head pose) in every frame "
                     "and write them to a track file (.npz). MEDIA is a video file, an image, a folder of images "
                     "or camera:N.")
