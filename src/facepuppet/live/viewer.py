@@ -280,12 +280,12 @@ class ViewerServer:
 
     def _process_request(self, connection, request):
         path = urlsplit(request.path).path
-        host = request.headers.get("Host", "")
+        hosts, origins = request.headers.get_all("Host"), request.headers.get_all("Origin")
+        host = hosts[0] if len(hosts) == 1 else ""
         if not self._allowed_host(host):
             return self._response(403, "Forbidden", b"unknown host\n", "text/plain")
         if path == _WS_PATH:
-            origin = request.headers.get("Origin")
-            if origin is None or origin != f"http://{host}":
+            if len(origins) != 1 or origins[0] != f"http://{host}":
                 return self._response(403, "Forbidden", b"origin not allowed\n", "text/plain")
             if len(self._clients) >= self.config.max_clients:
                 return self._response(503, "Service Unavailable", b"too many viewers\n", "text/plain")
