@@ -204,7 +204,10 @@ class ViewerServer:
             wake = not self._wake_pending
             self._wake_pending = True
         if wake:
-            self._loop.call_soon_threadsafe(self._broadcast)
+            try:
+                self._loop.call_soon_threadsafe(self._broadcast)
+            except RuntimeError:  # the server's loop has ended (closed, or its thread failed)
+                pass
 
     def neutral_requested(self) -> bool:
         """True once for each press of a page's "neutral" button since the last call."""
@@ -220,8 +223,12 @@ class ViewerServer:
                 return
             self._closed = True
         if self._thread.is_alive():
-            self._loop.call_soon_threadsafe(self._shutdown)
-            self._thread.join(10.0)
+            try:
+                self._loop.call_soon_threadsafe(self._shutdown)
+            except RuntimeError:
+                return
+            if threading.current_thread() is not self._thread:  # close() from a callback: do not wait on itself
+                self._thread.join(10.0)
 
     # -- the server's thread --------------------------------------------------------------------------------------
     def _run(self, port: int) -> None:
