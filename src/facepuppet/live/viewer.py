@@ -17,7 +17,9 @@ its port; a wildcard bind accepts any host name) -- others get 403, which also s
 - text, per frame: ``{"type": "frame", "i": index, "t": time s, "w": [weights in rig.json's order],
   "h": [9 floats, the head rotation row by row] or null, "v": valid, "lat": ms from capture to this message,
   "c": [[[x, y] x 4] x C] curves or null, "size": [W, H] of the camera picture or null}``;
-- binary, after a frame with a picture: uint32 little-endian frame index, then the picture as JPEG.
+- binary, the camera picture of a frame: uint32 little-endian frame index, then the picture as JPEG. It is
+  encoded in a worker thread after the frame's text went out (one at a time, the newest picture winning), so
+  the weights never wait for a JPEG.
 
 Page to server (text): ``{"type": "neutral"}`` (the button; :meth:`ViewerServer.neutral_requested` reports it
 once), ``{"type": "picture", "on": bool}`` (this client wants the camera picture or not).
@@ -106,7 +108,8 @@ class _Client:
 
     def __init__(self, ws) -> None:
         self.ws = ws
-        self.slot: tuple | None = None
+        self.slot: str | None = None
+        self.picture_slot: bytes | None = None
         self.wake = asyncio.Event()
         self.closed = False
         self.picture = True
@@ -158,6 +161,8 @@ class ViewerServer:
         self._wake_pending = False
         self._closed = False
         self._clients: set[_Client] = set()
+        self._picture_next: tuple[np.ndarray, int] | None = None
+        self._picture_task: asyncio.Task | None = None
         self.frames_in = 0
         self.frames_out = 0
         self._loop = asyncio.new_event_loop()
@@ -253,6 +258,7 @@ class ViewerServer:
             self._loop.run_forever()
         finally:
             self._loop.run_until_complete(self._loop.shutdown_asyncgens())
+            self._loop.run_until_complete(self._loop.shutdown_default_executor())
             self._loop.close()
 
     def _shutdown(self) -> None:
@@ -302,7 +308,7 @@ class ViewerServer:
             return self._response(404, "Not Found", b"not found\n", "text/plain")
         return self._response(200, "OK", *asset)
 
-    def _encode(self, frame: LiveFrame) -> tuple[str, bytes | None]:
+    def _encode(self, frame: LiveFrame) -> str:
         w = np.asarray(frame.weights, dtype=np.float64)
         if self._order is not None:
             w = np.where(self._order >= 0, w[np.maximum(self._order, 0)], 0.0)
@@ -310,17 +316,15 @@ class ViewerServer:
         head = None
         if frame.head_rotation is not None and np.all(np.isfinite(frame.head_rotation)):
             head = np.asarray(frame.head_rotation, dtype=np.float64).ravel().tolist()
-        picture, size = None, None
-        if frame.image is not None and any(c.picture for c in self._clients):
-            picture, size = self._jpeg(frame.image, frame.index), [int(frame.image.shape[1]),
-                                                                    int(frame.image.shape[0])]
+        size = None if frame.image is None else [int(frame.image.shape[1]), int(frame.image.shape[0])]
         curves = None if frame.curves is None else np.round(np.asarray(frame.curves, float), 2).tolist()
         message = {"type": "frame", "i": int(frame.index), "t": float(frame.time), "w": w.tolist(), "h": head,
                    "v": bool(frame.valid), "lat": round((time.perf_counter() - frame.timestamp) * 1e3, 3),
                    "c": curves, "size": size}
-        return json.dumps(message, separators=(",", ":")), picture
+        return json.dumps(message, separators=(",", ":"))
 
     def _jpeg(self, image: np.ndarray, index: int) -> bytes | None:
+        """uint32 frame index + JPEG of the picture (in a worker thread: OpenCV releases the GIL)."""
         import cv2
 
         img = np.ascontiguousarray(image[..., ::-1])  # RGB -> BGR
@@ -332,20 +336,40 @@ class ViewerServer:
         return np.uint32(index).astype("<u4").tobytes() + data.tobytes() if ok else None
 
     def _broadcast(self) -> None:
+        """Give every client the newest frame's message at once; its picture follows when encoded."""
         with self._lock:
             frame, self._latest = self._latest, None
             self._wake_pending = False
         if frame is None or not self._clients:
             return
         try:
-            text, picture = self._encode(frame)
+            text = self._encode(frame)
         except Exception:  # a malformed frame must not stop the viewer
             log.exception("viewer: frame %s could not be encoded", frame.index)
             return
         for client in self._clients:
-            client.slot = (text, picture if client.picture else None)
+            client.slot = text
             client.wake.set()
         self.frames_out += 1
+        if frame.image is not None and any(c.picture for c in self._clients):
+            self._picture_next = (frame.image, frame.index)  # newest wins while one is being encoded
+            if self._picture_task is None:
+                self._picture_task = self._loop.create_task(self._pictures())
+
+    async def _pictures(self) -> None:
+        """Encode the newest picture in a worker thread, one at a time, and hand it to the clients."""
+        try:
+            while self._picture_next is not None:
+                (image, index), self._picture_next = self._picture_next, None
+                data = await self._loop.run_in_executor(None, self._jpeg, image, index)
+                for client in self._clients:
+                    if data is not None and client.picture:
+                        client.picture_slot = data
+                        client.wake.set()
+        except Exception:
+            log.exception("viewer: the camera picture could not be encoded")
+        finally:
+            self._picture_task = None
 
     async def _handler(self, ws) -> None:
         client = _Client(ws)
@@ -356,12 +380,12 @@ class ViewerServer:
             while not client.closed:
                 await client.wake.wait()
                 client.wake.clear()
-                slot, client.slot = client.slot, None
-                if slot is None:
-                    continue
-                for message in slot:
-                    if message is not None:
-                        await ws.send(message)
+                text, client.slot = client.slot, None
+                picture, client.picture_slot = client.picture_slot, None
+                if text is not None:
+                    await ws.send(text)
+                if picture is not None:
+                    await ws.send(picture)
         except closed:
             pass
         finally:
