@@ -135,6 +135,18 @@ class ViewerServer:
     on_neutral : callable, optional
         Called with no argument, in the server's thread, when a page presses "neutral".
 
+    Attributes
+    ----------
+    port : int
+        The port it listens on.
+    url : str
+        The page's address.
+    clients : int
+        WebSocket clients connected now.
+    frames_in, frames_out : int
+        Frames given to :meth:`send`, and frames sent on to the clients (the difference were replaced by a
+        newer frame before the server's thread got to them).
+
     Raises
     ------
     ValueError
