@@ -213,8 +213,9 @@ def run_live(source: str | os.PathLike, rig, *, config: LiveConfig | None = None
 
     Parameters
     ----------
-    source : str or PathLike
-        ``camera:N``, or a video file or image folder standing in for a camera.
+    source : str or PathLike or MediaSource
+        ``camera:N``, or a video file or image folder standing in for a camera; or a source opened by the
+        caller (then not closed here).
     rig : Rig or str or PathLike
         The rig (``facepuppet rig``) or its file.
     config : LiveConfig, optional
@@ -252,7 +253,7 @@ def run_live(source: str | os.PathLike, rig, *, config: LiveConfig | None = None
             on_rezero()
 
     with contextlib.ExitStack() as stack:
-        media = stack.enter_context(open_media(source))
+        media = stack.enter_context(open_media(source)) if isinstance(source, (str, os.PathLike)) else source
         live = LiveSource(media, pace=config.pace, max_frames=config.max_frames)
         tracker = make_tracker_for(tracker_options, source)
         stack.callback(tracker.close)
