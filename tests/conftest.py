@@ -55,6 +55,15 @@ def face_landmarker(assets) -> Path:
     return path
 
 
+@pytest.fixture(scope="session")
+def demo(tmp_path_factory):
+    """The built-in demo run once (5 s, colour tracker): its files hold a video, a profile and a rig."""
+    from facepuppet.demo.run import DemoConfig, run_demo
+
+    folder = tmp_path_factory.mktemp("demo")
+    return run_demo(folder, DemoConfig(seconds=5.0, progress=False))
+
+
 @pytest.fixture
 def rng():
     return np.random.default_rng(1234)

@@ -19,14 +19,6 @@ ERROR_BAR = 0.5
 COLOUR_BOUND = 0.65
 
 
-@pytest.fixture(scope="module")
-def demo(tmp_path_factory):
-    from facepuppet.demo.run import DemoConfig, run_demo
-
-    folder = tmp_path_factory.mktemp("demo")
-    return run_demo(folder, DemoConfig(seconds=5.0, progress=False))
-
-
 def test_demo_meets_the_error_bar(demo):
     assert demo.coverage > 0.95
     assert demo.error <= ERROR_BAR, f"relative vertex error {demo.error:.3f} > {ERROR_BAR}"

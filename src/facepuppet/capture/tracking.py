@@ -21,7 +21,7 @@ from facepuppet.errors import FacepuppetError
 from facepuppet.io.frames import MediaSource, open_media
 from facepuppet.io.track import Track
 
-__all__ = ["BACKENDS", "DEFAULT_BACKEND", "make_tracker", "track_media"]
+__all__ = ["BACKENDS", "DEFAULT_BACKEND", "make_tracker", "track_media", "features_to_track"]
 
 log = logging.getLogger(__name__)
 
@@ -157,18 +157,30 @@ def track_media(media: str | os.PathLike | MediaSource, tracker: Tracker, *, pro
     label = getattr(source, "path", str(media))
     if not feats:
         raise FacepuppetError(f"{label}: no frames to track")
-    valid = np.array([f.valid for f in feats], dtype=bool)
-    if not valid.any():
+    track = features_to_track(feats, fps=source.fps, frame_size=source.frame_size, backend=tracker.name,
+                              static_extras=getattr(tracker, "static_extras", None))
+    if not track.valid.any():
         raise FacepuppetError(f"{label}: no face found in any of its {len(feats)} frame(s)")
-    log.info("%s: tracked %d of %d frames (%.0f fps tracking)", label, valid.sum(), len(feats),
+    log.info("%s: tracked %d of %d frames (%.0f fps tracking)", label, track.valid.sum(), len(feats),
              len(feats) / max(t_track, 1e-9))
+    return track
+
+
+def features_to_track(feats: list[FrameFeatures], *, fps: float, frame_size, backend: str,
+                      static_extras: dict | None = None) -> Track:
+    """A :class:`~facepuppet.io.track.Track` of per-frame features, in order.
+
+    Per-frame extras become ``(F, ...)`` arrays (NaN where a frame lacks one); ``static_extras`` are added as
+    they are; every array of a frame without a face is NaN (the track file's contract).
+    """
+    valid = np.array([f.valid for f in feats], dtype=bool)
     extras = _stack_extras([f.extras for f in feats], len(feats))
-    for k, v in (getattr(tracker, "static_extras", None) or {}).items():
+    for k, v in (static_extras or {}).items():
         extras[k] = np.asarray(v)
     arrays = {k: np.stack([np.asarray(getattr(f, k), dtype=float) for f in feats])
               for k in ("curves", "points", "rotation", "translation")}
     for a in arrays.values():
         a[~valid] = np.nan  # a frame without a face holds no numbers (track file contract)
-    return Track(fps=float(source.fps), frame_size=np.asarray(source.frame_size, dtype=int), valid=valid,
-                 curve_names=CURVE_NAMES, point_names=POINT_NAMES, backend=tracker.name, extras=extras or None,
+    return Track(fps=float(fps), frame_size=np.asarray(frame_size, dtype=int), valid=valid,
+                 curve_names=CURVE_NAMES, point_names=POINT_NAMES, backend=backend, extras=extras or None,
                  **arrays)

@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
                                progress=False if args.no_progress else None),
         smoothing=parse_smoothing(args.smoothing), gain=parse_gain(args.gain), head_rotation=not args.no_head)
     anim = animate(args.media, args.rig, glb=args.output, csv=args.csv, preview=args.preview,
-                   track=args.track, config=config)
+                   track=args.track, config=config, keep_track=False)
     n, ok = len(anim.valid), int(anim.valid.sum())
     t = anim.timings
     busy = t.get("track", 0.0) + t.get("map", 0.0) + t.get("write", 0.0)

@@ -75,7 +75,7 @@ def head_angles(rotation: np.ndarray) -> np.ndarray:
 
 def write_weights_csv(path: str | os.PathLike, weights: np.ndarray, names: Sequence[str], fps: float, *,
                       head_rotation: np.ndarray | None = None, valid: np.ndarray | None = None,
-                      layout: str = "auto", start_time: float = 0.0) -> str:
+                      layout: str = "auto", start_time: float = 0.0, times: np.ndarray | None = None) -> str:
     """Write per-frame blend weights (and head rotation) as CSV, atomically.
 
     Parameters
@@ -96,6 +96,9 @@ def write_weights_csv(path: str | os.PathLike, weights: np.ndarray, names: Seque
         ``auto`` takes the Live Link Face layout when at least half of the names are ARKit blendshapes.
     start_time : float
         Time of the first row in seconds (for example a time of day).
+    times : (F,) float, optional
+        Each row's time in seconds after ``start_time`` (a live recording with dropped frames); ``f / fps``
+        if None.
 
     Returns
     -------
@@ -126,7 +129,12 @@ def write_weights_csv(path: str | os.PathLike, weights: np.ndarray, names: Seque
     columns = [arkit_columns(n) for n in names]
     if layout == "auto":
         layout = "arkit" if names and sum(bool(c) for c in columns) * 2 >= len(names) else "plain"
-    times = start_time + np.arange(f) / fps
+    if times is None:
+        times = np.arange(f) / fps
+    times = np.asarray(times, dtype=np.float64)
+    if times.shape != (f,) or not np.isfinite(times).all():
+        raise ValueError(f"times must be {f} finite seconds, got shape {times.shape}")
+    times = start_time + times
     if layout == "arkit":
         unmapped = [n for n, c in zip(names, columns, strict=True) if not c]
         if unmapped:

@@ -26,7 +26,7 @@ __all__ = ["write_animated_glb", "rotation_quaternions"]
 
 def write_animated_glb(path: str | os.PathLike, character: Character, weights: np.ndarray, fps: float, *,
                        head_rotation: np.ndarray | None = None, pivot: np.ndarray | None = None,
-                       normals: bool = False, name: str = "performance") -> None:
+                       normals: bool = False, name: str = "performance", times: np.ndarray | None = None) -> None:
     """Write ``character`` with one animation of its morph weights (and head rotation) as a GLB, atomically.
 
     Parameters
@@ -48,6 +48,8 @@ def write_animated_glb(path: str | os.PathLike, character: Character, weights: n
         Also store vertex normals of the neutral (needs faces).
     name : str
         The animation's name.
+    times : (F,) float, optional
+        Each frame's time in seconds, increasing (a live recording with dropped frames); ``f / fps`` if None.
     """
     weights = np.asarray(weights, dtype=np.float64)
     m = len(character.names)
@@ -58,11 +60,16 @@ def write_animated_glb(path: str | os.PathLike, character: Character, weights: n
     if m == 0:
         raise ValueError("the character has no key-models to animate")
     f = len(weights)
+    if times is None:
+        times = np.arange(f) / fps
+    times = np.asarray(times, dtype=np.float64)
+    if times.shape != (f,) or not np.isfinite(times).all() or (f > 1 and not (np.diff(times) > 0).all()):
+        raise ValueError(f"times must be {f} finite, increasing seconds, got shape {times.shape}")
     weights = np.where(np.all(np.isfinite(weights), axis=1, keepdims=True), weights, 0.0)
 
     builder = GltfBuilder(generator=f"facepuppet {__version__}")
     mesh_node = add_character(builder, character, normals=normals)
-    times = builder.add_accessor((np.arange(f) / fps).astype(np.float32), min_max=True)
+    times = builder.add_accessor(times.astype(np.float32), min_max=True)
     samplers = [{"input": times, "interpolation": "LINEAR",
                  "output": builder.add_accessor(weights.astype(np.float32).reshape(-1))}]
     channels = [{"sampler": 0, "target": {"node": mesh_node, "path": "weights"}}]

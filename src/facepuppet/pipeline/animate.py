@@ -1,41 +1,50 @@
 """From a performance video to an animated character: track, map, smooth, scale, write.
 
-:func:`animate` runs the whole chain; :func:`map_track` is its middle (a track and a rig in, weights out) for
-callers that track by other means (a live camera, a track file made before).
+:func:`animate` runs the whole chain over a file in one causal pass (:mod:`facepuppet.pipeline.stream`);
+:func:`map_track` is its middle (a track and a rig in, weights out) for a track made before.
 
 Per frame: the tracker's feature points (head pose removed) go to the rig's mapper (paper Eq. 13) on frames
 with a face; the weights are smoothed by a One-Euro filter, which also holds and then eases lost frames to
 neutral (:mod:`facepuppet.pipeline.smoothing`), then scaled and clipped by the expression gain
 (:mod:`facepuppet.pipeline.gain`). The outputs are a GLB (the character's key-models as morph targets and one
 animation of their weights and of the head rotation), a CSV (Live Link Face layout for ARKit names) and a
-side-by-side preview video. Every output is written atomically, and only after the whole performance has been
-tracked and mapped, so a failure leaves none of them.
+side-by-side preview video (:mod:`facepuppet.pipeline.outputs`). They appear together when the take ends
+without error, and a failure or an interrupt leaves none of them.
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
+import sys
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from facepuppet.capture.features import FrameFeatures
 from facepuppet.errors import FacepuppetError
 from facepuppet.io.track import Track
-from facepuppet.pipeline.gain import GainConfig, apply_gain
-from facepuppet.pipeline.smoothing import SmoothingConfig, smooth
-from facepuppet.pipeline.tracking import TrackerOptions, get_track
+from facepuppet.pipeline.gain import GainConfig
+from facepuppet.pipeline.outputs import CsvOutput, GlbOutput, PreviewOutput
+from facepuppet.pipeline.smoothing import SmoothingConfig
+from facepuppet.pipeline.stream import (
+    FrameMapper,
+    SourceFrame,
+    StreamFrame,
+    head_rotation_in_character,
+    run_stream,
+    source_frames,
+)
+from facepuppet.pipeline.tracking import TrackerOptions, make_tracker_for
 
 __all__ = ["AnimateConfig", "Animation", "map_track", "animate", "head_rotation_in_character",
            "check_rig_matches"]
 
 log = logging.getLogger(__name__)
-
-#: OpenCV camera axes (x right, y down, z forward) to the character's (glTF: y up, facing +z).
-_CAMERA_TO_CHARACTER = np.diag([1.0, -1.0, -1.0])
-
 
 @dataclass(frozen=True, kw_only=True)
 class AnimateConfig:
@@ -70,33 +79,28 @@ class Animation:
     names : tuple of M str
         Paired key-model names (the rig's).
     fps : float
-    track : Track
-        What the tracker saw.
+    track : Track or None
+        What the tracker saw (None when :func:`animate` was told not to keep it).
     timings : dict of str -> float
-        Seconds spent per step (``track``, ``map``, ``write``, ``preview``).
+        Seconds spent per step (``track``, ``map``, ``write``: the outputs, ``all``).
+    valid_frames : (F,) bool or None
+        Frames whose features were mapped; the track's ``valid`` when None.
     """
 
     weights: np.ndarray
     raw: np.ndarray
     names: tuple[str, ...]
     fps: float
-    track: Track
+    track: Track | None
     timings: dict = field(default_factory=dict)
+    valid_frames: np.ndarray | None = None
 
     @property
     def valid(self) -> np.ndarray:
         """(F,) bool: frames with a tracked face."""
-        return self.track.valid
-
-
-def head_rotation_in_character(rotation: np.ndarray) -> np.ndarray:
-    """Head rotations (F, 3, 3) from the track's camera frame to the character's frame.
-
-    The track's rotation R maps head to OpenCV camera coordinates; the character (y up, facing +z, its own
-    left at +x, like the head frame) turns by ``diag(1, -1, -1) @ R``, which is the identity for a frontal,
-    upright head. The performer turning to their left turns the character to its own left.
-    """
-    return np.einsum("ij,fjk->fik", _CAMERA_TO_CHARACTER, np.asarray(rotation, dtype=float))
+        if self.track is not None:
+            return self.track.valid
+        return self.valid_frames
 
 
 def check_rig_matches(rig, track: Track, rig_label: str = "rig") -> None:
@@ -110,7 +114,7 @@ def check_rig_matches(rig, track: Track, rig_label: str = "rig") -> None:
 
 
 def map_track(rig, track: Track, config: AnimateConfig | None = None, *, rig_label: str = "rig") -> Animation:
-    """Weights of every frame of a track (mapper on valid frames, then smoothing and gain).
+    """Weights of every frame of a track: the stream's per-frame mapper (Eq. 13, smoothing, gain) over it.
 
     Parameters
     ----------
@@ -123,19 +127,12 @@ def map_track(rig, track: Track, config: AnimateConfig | None = None, *, rig_lab
     config = config or AnimateConfig()
     check_rig_matches(rig, track, rig_label)
     t0 = time.perf_counter()
-    f, m = track.n_frames, len(rig.names)
-    raw = np.full((f, m), np.nan)
-    ok = track.valid & np.isfinite(track.points).all(axis=(1, 2))
-    if ok.any():
-        pts = track.points[ok]
-        try:
-            raw[ok] = rig.mapper.weights(pts)
-        except ValueError as e:
-            raise FacepuppetError(f"{rig_label}: does not fit the track's feature points ({e})") from e
-    weights = smooth(raw, track.fps, valid=ok, config=config.smoothing)
-    weights = apply_gain(weights, config.gain, rig.names)
-    return Animation(weights, raw, tuple(rig.names), float(track.fps), track,
-                     {"map": time.perf_counter() - t0})
+    mapper = FrameMapper(rig, smoothing=config.smoothing, gain=config.gain, rig_label=rig_label)
+    recorder = _Recorder(keep_track=False)
+    run_stream(track_frames(track, None), None, mapper, [recorder])
+    anim = recorder.animation(rig, float(track.fps), track)
+    anim.timings["map"] = time.perf_counter() - t0
+    return anim
 
 
 def _load_rig(rig):
@@ -159,8 +156,12 @@ def _check_out(path) -> None:
 def animate(media: str | os.PathLike | None, rig, *, glb: str | os.PathLike | None = None,
             csv: str | os.PathLike | None = None, preview: str | os.PathLike | None = None,
             track: Track | str | os.PathLike | None = None, config: AnimateConfig | None = None,
-            colors: np.ndarray | None = None) -> Animation:
-    """Animate a character from a performance video.
+            colors: np.ndarray | None = None, keep_track: bool = True,
+            max_frames: int | None = None) -> Animation:
+    """Animate a character from a performance video, in one causal pass (:mod:`facepuppet.pipeline.stream`).
+
+    Every frame is decoded once, tracked, mapped, smoothed, scaled and handed to every output as it passes;
+    the outputs appear together at the end (all or none).
 
     Parameters
     ----------
@@ -176,6 +177,11 @@ def animate(media: str | os.PathLike | None, rig, *, glb: str | os.PathLike | No
     config : AnimateConfig, optional
     colors : (V, 3) float, optional
         Vertex colours of the character in the preview (grey by default).
+    keep_track : bool
+        Keep every frame's features and return them as ``Animation.track`` (memory grows with the take);
+        False keeps only the weights.
+    max_frames : int, optional
+        Stop after this many frames.
 
     Returns
     -------
@@ -187,88 +193,116 @@ def animate(media: str | os.PathLike | None, rig, *, glb: str | os.PathLike | No
         _check_out(out)
     if preview is not None and media is None:
         raise ValueError("--preview needs the input media (the frames drawn on the left)")
-    t0 = time.perf_counter()
-    if track is None:
-        if media is None:
-            raise ValueError("give the media to track, or --track")
-        track = get_track(media, config.tracker)
-    elif not isinstance(track, Track):
+    if track is None and media is None:
+        raise ValueError("give the media to track, or --track")
+    if track is not None and not isinstance(track, Track):
         from facepuppet.io.track import load_track
 
         track = load_track(track)
-    t_track = time.perf_counter() - t0
-    if not track.valid.any():
-        raise FacepuppetError(f"{media or 'track'}: no face was tracked in any frame")
-    anim = map_track(rig, track, config, rig_label=rig_label)
-    anim.timings["track"] = t_track
-
+    if track is not None:
+        check_rig_matches(rig, track, rig_label)
+        if not track.valid.any():
+            raise FacepuppetError(f"{media or 'track'}: no face was tracked in any frame")
+    mapper = FrameMapper(rig, smoothing=config.smoothing, gain=config.gain, rig_label=rig_label)
     t0 = time.perf_counter()
-    char_weights = rig.character_weights(anim.weights)
-    rotation = head_rotation_in_character(track.rotation) if config.head_rotation else None
-    if rotation is not None:
-        rotation = _fill_lost_rotations(rotation, track.valid)
-    if glb is not None:
-        from facepuppet.export.gltf_animation import write_animated_glb
+    with contextlib.ExitStack() as stack:
+        source = None
+        if media is not None and (track is None or preview is not None):
+            from facepuppet.io.frames import open_media
 
-        write_animated_glb(glb, rig.character, char_weights, track.fps, head_rotation=rotation)
-    if csv is not None:
-        _write_csv(csv, rig, anim, rotation)
-    anim.timings["write"] = time.perf_counter() - t0
-    if preview is not None:
-        t0 = time.perf_counter()
-        _write_preview(preview, media, rig, anim, config, rotation, colors)
-        anim.timings["preview"] = time.perf_counter() - t0
+            source = stack.enter_context(open_media(media))
+        fps = float(track.fps) if track is not None else float(source.fps)
+        tracker = None
+        if track is None:
+            tracker = make_tracker_for(config.tracker, media)
+            stack.callback(tracker.close)
+            frames = source_frames(source, max_frames=max_frames)
+        else:
+            frames = track_frames(track, source, max_frames=max_frames)
+        recorder = _Recorder(keep_track)
+        outputs: list = [recorder]
+        if glb is not None:
+            outputs.append(GlbOutput(glb, rig, stack, head_rotation=config.head_rotation, fps=fps))
+        if csv is not None:
+            outputs.append(CsvOutput(csv, rig, stack, head_rotation=config.head_rotation, fps=fps))
+        if preview is not None:
+            outputs.append(PreviewOutput(preview, rig, stack, fps=fps, frame_height=int(source.frame_size[1]),
+                                         colors=colors, head_rotation=config.head_rotation))
+        total = source.frame_count if track is None else track.n_frames
+        if max_frames is not None and total is not None:
+            total = min(total, max_frames)
+        with _progress(total, config.tracker, "animate") as bar:
+            summary = run_stream(frames, tracker, mapper, outputs, on_frame=lambda f: bar.update(1),
+                                 point_names=None if tracker is None else _point_names())
+        label = getattr(source, "path", str(media)) if source is not None else "track"
+        if summary.frames == 0:
+            raise FacepuppetError(f"{label}: no frames to track")
+        if summary.with_face == 0:
+            raise FacepuppetError(f"{label}: no face found in any of its {summary.frames} frame(s)")
+        anim = recorder.animation(rig, fps, track, backend=getattr(tracker, "name", None),
+                                  static_extras=getattr(tracker, "static_extras", None),
+                                  frame_size=None if source is None else source.frame_size)
+    anim.timings.update(summary.timings)
+    anim.timings["all"] = time.perf_counter() - t0
     return anim
 
 
-def _fill_lost_rotations(rotation: np.ndarray, valid: np.ndarray) -> np.ndarray:
-    """Lost frames keep the last tracked rotation (the rest pose before the first)."""
-    out = rotation.copy()
-    last = np.eye(3)
-    for k in range(len(out)):
-        if valid[k] and np.isfinite(out[k]).all():
-            last = out[k]
-        else:
-            out[k] = last
-    return out
-
-
-def _write_csv(path, rig, anim: Animation, rotation: np.ndarray | None) -> None:
-    from facepuppet.export.csv import write_weights_csv
-
-    write_weights_csv(path, anim.weights, anim.names, anim.fps, head_rotation=rotation)
-
-
-def _write_preview(path, media, rig, anim: Animation, config: AnimateConfig, rotation: np.ndarray | None,
-                   colors: np.ndarray | None) -> None:
-    from facepuppet.capture.features import FrameFeatures
-    from facepuppet.capture.overlay import draw_overlay
-    from facepuppet.export.preview import write_preview
-    from facepuppet.export.render import Camera, render_mesh
-    from facepuppet.io.frames import open_media
-
-    track = anim.track
-    character = rig.character
-    height = int(track.frame_size[1])
-    neutral = np.asarray(character.neutral, dtype=float)
-    deltas = character.targets[rig.target_indices] - neutral[None]
-    pivot = (neutral.min(axis=0) + neutral.max(axis=0)) / 2
-    camera = Camera.fit(neutral, (height, height), margin=0.15)
-
-    def left(k: int, frame: np.ndarray) -> np.ndarray:
-        if k >= track.n_frames:
-            return frame
+def track_frames(track: Track, source=None, *, max_frames: int | None = None) -> Iterator[SourceFrame]:
+    """The frames of a track as the stream's source (features known), with the pictures of ``source`` if given."""
+    pictures = iter(source) if source is not None else None
+    n = track.n_frames if max_frames is None else min(track.n_frames, max_frames)
+    for k in range(n):
+        rgb = next(pictures, None) if pictures is not None else None
+        if pictures is not None and rgb is None:
+            raise FacepuppetError(f"{source.path}: has fewer frames ({k}) than its track ({track.n_frames})")
+        extras = {name: v[k] for name, v in (track.extras or {}).items()
+                  if np.ndim(v) and len(v) == track.n_frames} or None
         feats = FrameFeatures(bool(track.valid[k]), track.curves[k], track.rotation[k], track.translation[k],
-                              track.points[k])
-        return draw_overlay(frame, feats)
+                              track.points[k], extras)
+        yield SourceFrame(k, k / float(track.fps), rgb, time.perf_counter(), feats)
 
-    def right(k: int) -> np.ndarray:
-        k = min(k, len(anim.weights) - 1)
-        verts = neutral + np.tensordot(anim.weights[k], deltas, axes=1)       # Eq. 14
-        if rotation is not None:
-            verts = (verts - pivot) @ rotation[k].T + pivot
-        return render_mesh(verts, character.faces, camera=camera, colors=colors)
 
-    with open_media(media) as src:
-        write_preview(path, src, track.fps, left=left, right=right, n_frames=track.n_frames,
-                      progress=config.tracker.progress)
+class _Recorder:
+    """The output that keeps the take's weights (and, if asked, its features) for the returned Animation."""
+
+    def __init__(self, keep_track: bool) -> None:
+        self.keep_track = keep_track
+        self.raw: list[np.ndarray] = []
+        self.weights: list[np.ndarray] = []
+        self.features: list[FrameFeatures] = []
+
+    def write(self, frame: StreamFrame) -> None:
+        self.raw.append(frame.raw)
+        self.weights.append(frame.weights)
+        if self.keep_track:
+            self.features.append(frame.features)
+
+    def finish(self) -> None:
+        pass
+
+    def animation(self, rig, fps: float, track: Track | None, *, backend: str | None = None,
+                  static_extras: dict | None = None, frame_size=None) -> Animation:
+        if track is None and self.keep_track and self.features:
+            from facepuppet.capture.tracking import features_to_track
+
+            track = features_to_track(self.features, fps=fps, frame_size=frame_size, backend=backend or "",
+                                      static_extras=static_extras)
+        m = len(rig.names)
+        raw = np.array(self.raw).reshape(-1, m)
+        return Animation(np.array(self.weights).reshape(-1, m), raw, tuple(rig.names), float(fps), track,
+                         valid_frames=np.isfinite(raw).all(axis=1))
+
+
+def _point_names() -> tuple[str, ...]:
+    from facepuppet.capture.curves import POINT_NAMES
+
+    return tuple(POINT_NAMES)
+
+
+@contextlib.contextmanager
+def _progress(total: int | None, options: TrackerOptions, desc: str):
+    from tqdm import tqdm
+
+    show = options.progress is not False and sys.stderr.isatty()
+    with tqdm(total=total, unit="frame", desc=desc, disable=not show, dynamic_ncols=True, leave=False) as bar:
+        yield bar

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 from facepuppet.io.track import Track
 
-__all__ = ["TrackerOptions", "get_track", "tracker_kwargs"]
+__all__ = ["TrackerOptions", "get_track", "tracker_kwargs", "make_tracker_for"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -41,15 +41,22 @@ def tracker_kwargs(options: TrackerOptions) -> dict:
     return {}
 
 
-def get_track(media: str | os.PathLike, options: TrackerOptions, *, max_frames: int | None = None) -> Track:
-    """Track ``media`` with the chosen backend (see :mod:`facepuppet.capture.tracking`)."""
-    from facepuppet.capture.tracking import make_tracker, track_media
+def make_tracker_for(options: TrackerOptions, media=None):
+    """The chosen backend, set up for ``media`` (a still photograph gets MediaPipe's image mode)."""
+    from facepuppet.capture.tracking import make_tracker
     from facepuppet.io.frames import is_still
 
     kwargs = tracker_kwargs(options)
     if options.backend == "mediapipe" and isinstance(media, (str, os.PathLike)) and is_still(media):
         kwargs["running_mode"] = "image"   # one photograph: no video to follow the face through
-    tracker = make_tracker(options.backend, **kwargs)
+    return make_tracker(options.backend, **kwargs)
+
+
+def get_track(media: str | os.PathLike, options: TrackerOptions, *, max_frames: int | None = None) -> Track:
+    """Track ``media`` with the chosen backend (see :mod:`facepuppet.capture.tracking`)."""
+    from facepuppet.capture.tracking import track_media
+
+    tracker = make_tracker_for(options, media)
     try:
         return track_media(media, tracker, progress=options.progress is not False, max_frames=max_frames)
     finally:
