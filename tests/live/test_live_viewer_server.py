@@ -237,6 +237,9 @@ def test_stream_survives_churn_and_a_client_that_never_reads(character):
             time.sleep(0.05)
         assert received and received[-1] == sent[-1]
         assert all(b > a for a, b in zip(received, received[1:], strict=False))
+        deadline = time.monotonic() + 20  # the server notices the last visitors leave
+        while server.clients > 2 and time.monotonic() < deadline:
+            time.sleep(0.05)
         assert server.clients == 2  # the reader and the stalled client; the 100 visitors are gone
     finally:
         stop.set()

@@ -2,29 +2,29 @@
 
 Per frame one OSC bundle (time tag "immediately") goes to the receiver, holding in this order:
 
-=========================================  ==================================================================
-``/VMC/Ext/Blend/Val  name:s value:f``     one per blend shape clip the rig drives (names below)
-``/VMC/Ext/Blend/Apply``                   apply the values just sent
-``/VMC/Ext/Bone/Pos "Head" px py pz        the head bone's local position (metres) and rotation
-qx qy qz qw`` (all f)                      (a unit quaternion), in Unity's frame; left out without a head pose
-``/VMC/Ext/OK  1:i``                       the model is loaded
-``/VMC/Ext/T  time:f``                     the frame's time in the take, seconds
-=========================================  ==================================================================
+=============================================  ==============================================================
+``/VMC/Ext/Blend/Val name:s value:f``          one per blend shape clip the rig drives (names below)
+``/VMC/Ext/Blend/Apply``                       apply the values just sent
+``/VMC/Ext/Bone/Pos "Head" px py pz qx qy qz   the head bone's local position (metres) and rotation (unit
+qw`` (s, then 7 f)                             quaternion), Unity's frame; left out without a head pose
+``/VMC/Ext/OK 1:i``                            the model is loaded
+``/VMC/Ext/T time:f``                          the frame's time in the take, seconds
+=============================================  ==============================================================
 
 **Names.** "Perfect Sync" avatars (the VRM convention of VSeeFace, VNyan, Warudo, VMagicMirror, after
 hinzka's 52-blendshape VRoid template) carry one blend shape clip per ARKit blendshape, named as ARKit names
 it with the first letter capitalised -- Live Link Face's spelling (:data:`facepuppet.arkit.LLF_NAMES`):
 
-==============================  ============================  ==============================
-key-model (any spelling)        clip sent                     note
-==============================  ============================  ==============================
-``eyeBlinkLeft``, ``eyeBlink_L``  ``EyeBlinkLeft``
-``jawOpen``                     ``JawOpen``
-``mouthSmile`` (symmetric)      ``MouthSmileLeft``,           both sides get the value
-                                ``MouthSmileRight``
-``browInnerUp_L`` + ``_R``      ``BrowInnerUp``               halves averaged
-``smile`` (not ARKit's)         ``smile``                     sent under its own name
-==============================  ============================  ==============================
+==================================  ==================================  ========================
+key-model (any spelling)            clip sent                           note
+==================================  ==================================  ========================
+``eyeBlinkLeft``, ``eyeBlink_L``    ``EyeBlinkLeft``
+``jawOpen``                         ``JawOpen``
+``mouthSmile`` (symmetric)          ``MouthSmileLeft``,                 both sides, same value
+                                    ``MouthSmileRight``
+``browInnerUp_L`` + ``_R``          ``BrowInnerUp``                     halves averaged
+``smile`` (not ARKit's)             ``smile``                           sent under its own name
+==================================  ==================================  ========================
 
 ``VmcConfig(names="arkit")`` sends ARKit's own spelling (``eyeBlinkLeft``) instead, for avatars whose clips
 are named so; ``names="rig"`` sends the rig's names unchanged.
