@@ -1,6 +1,6 @@
 """Speed of the mapping stage, each figure next to a plain-numpy reference measured in the same run.
 
-Budgets (issue 2): weights() of one frame <= 100 us; synthesize() of an 11,248-vertex character <= 1 ms per
+Budgets: weights() of one frame <= 100 us; synthesize() of an 11,248-vertex character <= 1 ms per
 frame; fit of 13 examples <= 50 ms. Uses the ICT-FaceKit model from ../shared/assets when present (or
 $FACEPUPPET_ASSETS), else a synthetic performer and character of the same sizes.
 

@@ -2,7 +2,7 @@
 
 Each clip's frames are decoded once into memory; then each backend (a fresh tracker per clip, after a warm-up)
 tracks them in order and only its ``track`` calls are timed, in process CPU time. By default the process is pinned
-to one CPU core (the issue's budget: the colour tracker >= 1,000 frames/s on one core, ten times MediaPipe or
+to one CPU core (the budget: the colour tracker >= 1,000 frames/s on one core, ten times MediaPipe or
 more). A backend that cannot be built (colour tracker not importable, mediapipe or its model missing) gets a row
 saying why.
 

@@ -1,7 +1,7 @@
 """The colour tracker on altered copies of the shared clips: dim, warm, noisy and small faces.
 
-Issue 3 asks that the tracker hold up on footage unlike the three shared clips (dim light, small faces, ...).
-This makes such footage from the shared clips and measures it with the shared yardstick:
+The tracker should hold up on footage unlike the three shared clips (dim light, small faces, ...). This makes
+such footage from the shared clips and measures it with the shared yardstick:
 
 - ``dim``: every channel times 0.35 (an underexposed room);
 - ``warm``: red times 1.3, green 0.95, blue 0.65 (tungsten light on an uncorrected camera);

@@ -1,103 +1,40 @@
 """The built-in demo: the whole chain on a digital performer, with ground truth, no data, network or camera.
 
-1. Render the digital performer (:mod:`facepuppet.demo.performer`) acting the calibration script (neutral, then
-   each key expression held, then the neutral face with the head moving) and a performance with head motion
-   (:mod:`facepuppet.demo.script`); write both videos.
-2. Track both videos (:data:`TRACKERS`): with the colour tracker, whose performer profile is first trained on
-   every calibration frame, head sweep included, labelled with the performer's true curves (§3.1; its shape
-   models need the sweep: trained on the still frames only they gave 0.75 instead of 0.41, while without
-   shape models the sweep frames made the rules' curves worse, 2.5 px from the true ones instead of 1.9);
-   with the MediaPipe backend; or with the performer's true image curves standing in for a tracker (the
-   same head-pose solve and back-projection onto the generic face as every tracker, from curves that are
-   exact).
-3. Make the key expressions from the calibration marks (``facepuppet calibrate --marks``; the head-motion span
-   becomes the performer's nuisance, which the mapping discounts), pair them with the stylised Toy
-   (:mod:`facepuppet.demo.toy`) and fit the rig (``facepuppet rig``).
-4. Animate the Toy from the performance (``facepuppet animate``): GLB, CSV, overlay, side-by-side preview.
-5. Compare with the ground truth: the Toy posed with the script's own weights.
+Steps of :func:`run_demo` (each timed in :attr:`DemoResult.timings`):
 
-Error: for each frame with an expression (its largest scripted weight at least :data:`EXPRESSIVE`), the
-relative vertex error ``||V_pred - V_true|| / ||V_true - T_B||`` (Frobenius norms over all vertices), averaged.
-0 is perfect; 1 is as far off as showing the neutral face.
+1. Render the digital performer (:mod:`facepuppet.demo.performer`) acting the calibration script (neutral, each
+   key expression held, then the neutral face with the head turning, nodding and tilting) and a performance
+   with head motion (:mod:`facepuppet.demo.script`); write both videos and the calibration's marks file, whose
+   last line is the head-motion span.
+2. Track both videos with the tracker of :data:`TRACKERS` chosen in :class:`DemoConfig`:
 
-Which tracker is the default (:data:`DEFAULT_TRACKER`): measured with ``benchmarks/eval_demo_color.py`` on
-this performer (320 px frames, 8 s, seeds 0, 1, 2), the colour tracker's error is 0.68, 0.67 and 0.77 (mean
-0.71 on 2026-11-30 with the calibration's head-motion span, which the mapping discounts; 0.98 without it),
-above the bar of 0.5; MediaPipe's is 0.43 (0.63 without the span), the true curves' 0.14 (0.12). The
-head-motion span was measured first on cached tracks: a separate 8 s clip of the neutral face with the head
-moving, tracked, its displacements' covariance used as the mapping's nuisance (``nuisance_floor`` 1e-3 there:
-colour 0.72; projecting out the first 8 of its principal directions instead: 0.73). Tried beside it and
-not adopted: aligning each frame's points on the neutral ones by a 2D similarity first (colour 0.66, but on
-the real clips the colour tracker's correlations with MediaPipe's scores fell, performer_a jaw 0.88 to 0.66,
-performer_c smile 0.89 to 0.23, and on the ICT yardstick 0.649 to 0.660); a sparsity prior on the weights
-(an L1 term growing with the frame's residual noise: MediaPipe 0.43 and colour 0.75 without the span, but
-worse on every kind of ICT scene, 1.21 to 1.56 times the source-oracle, and performer_c's colour smile fell
-from 0.89 to -0.03). With the span in place, the colour tracker's own curve filter costs most of what is
-left: without it (``ColorTrackerConfig(smoothing=False)``) the error is 0.61, with a three times faster
-curve filter 0.65 (lag: the tracked curves match the true ones best one frame later); the tracker's
-resolution does not (``px`` 72: 0.78; rendering at 640 px with ``px`` 96 before the span: 0.88-1.06).
+   - ``color`` (:data:`DEFAULT_TRACKER`): the paper's colour tracker, after its performer profile is trained
+     (§3.1) on every calibration frame, head sweep included, labelled with the performer's true curves (as
+     the landmark backend labels a real performer's). It runs without the optional landmark model whatever
+     the environment names, so the result is the same on every machine; its kernels are compiled by worker
+     processes while the performer is rendered;
+   - ``mediapipe``: the landmark backend (its model from :attr:`DemoConfig.model` or
+     ``$FACEPUPPET_FACE_LANDMARKER``); a missing package or model is a :class:`~facepuppet.FacepuppetError`
+     raised before anything is rendered;
+   - ``truth``: :class:`TruthTracker`, the performer's true image curves through the same head-pose solve and
+     back-projection onto the generic face as every tracker, a check of the chain without image analysis.
+3. Make the key expressions from the calibration marks (as ``facepuppet calibrate --marks``; the head-motion
+   span becomes the performer's nuisance, which the mapping discounts), pair them with the stylised Toy
+   (:mod:`facepuppet.demo.toy`) and fit the rig (as ``facepuppet rig``).
+4. Animate the Toy from the performance (as ``facepuppet animate``): GLB, CSV, side-by-side preview; draw the
+   tracked curves and head axes on the performance (overlay).
+5. Score against the ground truth: the Toy posed with the script's own weights.
 
-Where the colour tracker's error came from before the head-motion span (measured on those seeds, swapping
-parts of its track for the truth, with the tracker as it was before its brow tilt and lower-lip rules, when
-the error was 0.88):
+Files (:data:`FILES`): ``calibration.mp4``, ``calibration-marks.csv``, ``performer-profile.npz`` (``color``
+only), ``performer.npz``, ``toy.glb``, ``rig.npz``, ``performance.mp4``, ``track.npz``, ``overlay.mp4``,
+``animation.glb``, ``animation.csv``, ``preview.mp4`` (unless ``preview=False``).
 
-- its curves are about 1.9 px (median) from the true ones, brows 1.6, lids 1.4, lips 2.3, nostrils 2.3; as
-  large as the motion the expressions give the feature points (rms about 0.2-0.4 cm, 2-4 px). Any one family
-  tracked by colour with the rest true already gives 0.36-0.45 (brows 0.45, outer lips 0.43, lids and inner
-  lips 0.36): the mapping turns small errors into weights on every key-model (the true curves plus white
-  noise of 0.5, 1 and 2 px give 0.29, 0.43 and 0.65), and the key expressions' examples carry the tracker's
-  errors too (in the calibration's blink the lips move 0.5 cm in head coordinates where they stand still);
-- the eye corners and nostrils, the head pose's stable points, are not measured but placed with the layout by
-  the face frame, a similarity aligned on the eye centres. It cannot show a turn of the head (solved freely,
-  the yaw varied by 0.5-1.4 degrees where the true one varies by 6, and against it: the colour tracker now
-  holds yaw and pitch at zero), and it jumps when the lids close or the brows lower (the nostrils 4-5 px off
-  in the calibration's blink and brow-down): the pose is about 7 degrees off (median). With the true pose
-  the error is 0.77; with the true stable points 0.66 (eye corners alone 0.78, nostrils alone 0.75).
-  Measuring the nostrils on their dark pixels (1.2 px from the true ones) made it
-  worse, 0.94 (0.88 without): the pitch rests on the nose's height under the eyes, and with the nose base
-  about 0.9 cm proud of the eye corners a pixel of it is several degrees; smoothing that measurement lagged
-  the head (1.09).
-
-Measured again on 2026-11-30 (``benchmarks/eval_demo_color.py`` and scripts on the same seeds):
-
-- the MediaPipe landmark backend (``tracker="mediapipe"``) on the same videos gives 0.58, 0.69 and 0.62: the
-  bar asks the colour tracker to beat it. Its points wander less from the true ones than the colour
-  tracker's (RMS, head coordinates, constant offset removed; brows 0.8 against 1.1 mm, outer lips 1.1
-  against 2.0 mm, where the expressions move them 1.3 and 2.2 mm), except on the lids (0.7 against 0.5 mm);
-- the head pose is badly conditioned at this scale (1 cm is about 10 px): the whole yaw range of the
-  performance (about 11 degrees each way) moves the nose base under 2 px against the eye corners, and the
-  colour tracker's nose points wander 1.9-2.3 px (MediaPipe's 0.8-1.1, its eye corners 0.75 against 1.6).
-  With every curve true, 0.5 px of white noise on the seven points the pose is solved from already gives
-  0.32, 1 px 0.47 (slowly varying noise: 0.39 and 0.56); with every curve true but the colour tracker's
-  nostrils, 0.72; with the true pose and the colour tracker's curves, 0.83. Profiling the six directions in
-  which a pose error moves the back-projected points out of the mapping brings the 1 px case to 0.21 and
-  MediaPipe to 0.50, but the colour tracker stays at 1.0, as it does when the pose is solved from all 48
-  points on the performer's own expression model (MediaPipe 0.53): its lips and brows must improve too;
-- without head motion the colour tracker gives 0.71 (seed 0, against 0.85);
-- the calibration video mapped back onto itself (weights not smoothed) gives 0.38 with the colour tracker,
-  0.00 with the true curves: between the neutral face and a held key, the tracked points do not move along
-  the line to the key's example, so onsets read as other keys (brows lowering read as mouthRollLower, the
-  inner brows rising as eyeWide at 0.8, with the true pose too);
-- tried and worse or no better: mapping each region (brows, eyes, mouth) on its own points (1.4-1.8);
-  profiling a rigid motion of all points out of the mapping (colour 0.97; MediaPipe 0.52, but on the real
-  clips it lowered the colour tracker's correlations, jaw of clip a 0.86 to 0.62); a ridge regression of the
-  curves from the whole face crop learnt on the calibration frames (curves 1.4 to 1.1 px, error 0.92 to 0.91);
-  a calibration video with head motion (1.09); low-passing the head rotation (1.25); the true per-coordinate
-  noise as the mapper's point scale (0.97); rendering at 480 px (seed 0: 0.87 against 0.85, the curve errors
-  grow with the face); ridge regressions of the brows or lips from patches learnt on the calibration
-  frames (their curves 1.8 to 1.2 px, the error unchanged while the pose is off).
-
-Since its profile learnt the lips and each brow from the look of the face crop
-(:mod:`facepuppet.capture.shape_models`), the colour tracker is under the bar (0.405, 0.419, 0.411 on seeds
-0-2; 0.408, 0.374, 0.465 on seeds 3-5; its curves 1.0 px from the true ones instead of 1.9) and the demo's
-default; the true curves remain a choice (``--tracker truth``), as a check of the chain without image analysis.
-
-That figure held for OpenCV 5.1 only: with the 5.0 wheel a clean install gets it was 0.517, 0.503, 0.490.
-The two builds' findTransformECC differ by 1e-6, the profile's colour network (trained to nearly the same
-loss) came out different, and with it the contrast C the eyes' rules read; swapping the two networks swapped
-the errors, and networks from other seeds or penalties gave 0.43-0.52. Since each eye has a shape model too,
-the eyes no longer depend on C: 0.390, 0.379, 0.370 with OpenCV 5.1 and 0.406, 0.374, 0.388 with 5.0 (seeds
-0-2; curves 0.74-0.85 px from the true ones).
+Error (:attr:`DemoResult.error`, printed by ``facepuppet demo``): over the frames with an expression (largest
+scripted weight at least :data:`EXPRESSIVE`), the mean relative vertex error
+``||V_pred - V_true|| / ||V_true - T_B||`` (Frobenius norms over all vertices of the Toy, T_B its neutral).
+0 is perfect; 1 is as far off as showing the neutral face throughout. The command prints it beside the bar
+of 0.5; :attr:`DemoResult.curve_error` is the median distance in pixels between the tracked and the true
+curves' control points. Measured values: ``docs/results.md``.
 """
 
 from __future__ import annotations
@@ -128,7 +65,7 @@ TRACKERS: dict[str, str] = {
                  "$FACEPUPPET_FACE_LANDMARKER)",
 }
 
-#: The demo's tracker unless told otherwise: the colour tracker, under the bar (module docstring).
+#: The demo's tracker unless told otherwise: the paper's colour tracker.
 DEFAULT_TRACKER = "color"
 
 #: What the demo writes, and what each file is.
