@@ -45,7 +45,10 @@ def register(subparsers) -> None:
     p.add_argument("--track", metavar="TRACK.npz", help="reuse a track of MEDIA made by facepuppet track")
     p.add_argument("--window", type=int, default=5, metavar="N", help="frames averaged per expression (5)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.set_defaults(run=run)
+    p.set_defaults(run=run,
+                   inputs=(("media", "MEDIA"), ("marks", "--marks"), ("character", "--character"),
+                           ("profile", "--profile"), ("model", "--model"), ("track", "--track")),
+                   outputs=(("output", "-o"), ("train_profile", "--train-profile")))
 
 
 def _camera(args: argparse.Namespace) -> str | None:

@@ -24,7 +24,10 @@ def register(subparsers) -> None:
                    help="MediaPipe face_landmarker.task of --tracker mediapipe (default $FACEPUPPET_FACE_LANDMARKER)")
     p.add_argument("--no-preview", action="store_true", help="skip the side-by-side preview video")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
-    p.set_defaults(run=run)
+    p.set_defaults(run=run,
+                   inputs=(("model", "--model"),),
+                   outputs=(("output", "-o"),),
+                   folder_outputs=("output",))
 
 
 def run(args: argparse.Namespace) -> int:

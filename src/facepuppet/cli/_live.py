@@ -41,7 +41,9 @@ def register(sub) -> None:
     p.add_argument("--smoothing", default="on", metavar="on|off|K=V,...", help="One-Euro smoothing (as animate)")
     p.add_argument("--no-head", action="store_true", help="do not send or record the head rotation")
     p.add_argument("--no-status", action="store_true", help="no status line")
-    p.set_defaults(run=run)
+    p.set_defaults(run=run,
+                   inputs=(("source", "SOURCE"), ("rig", "--rig"), ("profile", "--profile"), ("model", "--model")),
+                   outputs=(("record", "--record"), ("csv", "--csv"), ("stats", "--stats")))
 
 
 def run(args: argparse.Namespace) -> int:

@@ -21,7 +21,9 @@ def register(subparsers) -> None:
     p.add_argument("--neutral", default=None, metavar="NAME",
                    help="OBJ folder: the neutral OBJ's file name (default neutral.obj)")
     p.add_argument("--mesh", default=None, metavar="NAME", help="glTF: read only this mesh")
-    p.set_defaults(run=run)
+    p.set_defaults(run=run,
+                   inputs=(("performer", "--performer"), ("character", "--character")),
+                   outputs=(("output", "-o"),))
 
 
 def run(args: argparse.Namespace) -> int:

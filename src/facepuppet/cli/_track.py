@@ -29,7 +29,9 @@ def register(subparsers) -> None:
                    "head axes drawn on them")
     p.add_argument("--max-frames", type=int, metavar="N", help="track at most N frames")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.set_defaults(run=run)
+    p.set_defaults(run=run,
+                   inputs=(("media", "MEDIA"), ("profile", "--profile"), ("model", "--model")),
+                   outputs=(("output", "-o"), ("preview", "--preview")))
 
 
 def _check_output(path: str, option: str) -> None:
