@@ -451,7 +451,7 @@ class ExpressionMapper:
         arrays = read_npz(path, "mapper file", known=_REQUIRED + ("names", "point_scale", "whiten"),
                           prefixes=("option_", _SOLVER_PREFIX))
         if not arrays:
-            raise FacepuppetError(f"{path}: not a mapper file")
+            raise FacepuppetError(f"{path}: not a mapper file (not an ExpressionMapper: no member it knows)")
         try:
             return cls.from_arrays(arrays)
         except FacepuppetError as e:
