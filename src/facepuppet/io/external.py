@@ -59,7 +59,7 @@ def read_external(asset: str | os.PathLike, uri: str, byte_length: int, what: st
     try:
         st = os.stat(real)
     except OSError as e:
-        raise FacepuppetError(f"{asset}: cannot read {what} file {rel} ({e.strerror})") from e
+        raise FacepuppetError(f"{asset}: cannot read {what.split()[0]} file {rel} ({what}: {e.strerror})") from e
     if not stat.S_ISREG(st.st_mode):
         raise FacepuppetError(f"{label}: not a regular file")
     if st.st_size < byte_length:
@@ -68,7 +68,7 @@ def read_external(asset: str | os.PathLike, uri: str, byte_length: int, what: st
         with open(real, "rb") as f:
             data = f.read(byte_length)
     except OSError as e:
-        raise FacepuppetError(f"{asset}: cannot read {what} file {rel} ({e.strerror})") from e
+        raise FacepuppetError(f"{asset}: cannot read {what.split()[0]} file {rel} ({what}: {e.strerror})") from e
     if len(data) < byte_length:
         raise FacepuppetError(f"{asset}: {what} holds {len(data)} bytes, needs {byte_length} (file {rel})")
     return data
