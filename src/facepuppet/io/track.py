@@ -25,7 +25,7 @@ TRACK_KEYS = ("fps", "frame_size", "valid", "curves", "curve_names", "points", "
 #: The backends' further arrays a track file may hold (MediaPipe's blendshape scores and their names).
 TRACK_EXTRAS = ("blendshapes", "blendshape_names")
 #: Where the track came from (optional; files without them load with ``media = profile_hash = None``).
-PROVENANCE_KEYS = ("media_size", "media_frames", "media_hash", "profile_hash")
+PROVENANCE_KEYS = ("media_size", "media_frames", "media_hash", "profile_hash", "times")
 #: Frame rates a track may have, frames per second (lowest, highest).
 FPS_RANGE = (0.1, 1000.0)
 
@@ -64,6 +64,9 @@ class Track:
         (:func:`facepuppet._util.digest.media_record`); None when unknown (a folder, a camera, an older file).
     profile_hash : str or None
         Content hash of the colour tracker's performer profile used, None when none or unknown.
+    times : (F,) float or None
+        Each frame's time in seconds where a variable-frame-rate video's timestamps gave it; None means
+        ``index / fps``.
     """
 
     fps: float
@@ -79,9 +82,14 @@ class Track:
     extras: dict | None = None
     media: dict | None = None
     profile_hash: str | None = None
+    times: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         f = len(self.valid)
+        if self.times is not None:
+            t = np.asarray(self.times, dtype=float)
+            if t.shape != (f,) or not np.isfinite(t).all() or (f > 1 and not np.all(np.diff(t) > 0)):
+                raise ValueError(f"track times must be {f} finite, increasing seconds")
         checks = {
             "curves": (self.curves, (f, len(self.curve_names), 4, 2)),
             "points": (self.points, (f, len(self.point_names), 3)),
@@ -127,6 +135,8 @@ def save_track(path: str | os.PathLike, track: Track) -> None:
         "rotation": np.asarray(track.rotation, dtype=np.float32),
         "translation": np.asarray(track.translation, dtype=np.float32),
     })
+    if track.times is not None:
+        arrays["times"] = np.asarray(track.times, dtype=np.float64)
     for key, value in (track.extras or {}).items():
         if key in arrays or key in PROVENANCE_KEYS:
             raise ValueError(f"track extra {key!r} clashes with a standard key")
@@ -167,6 +177,7 @@ def load_track(path: str | os.PathLike) -> Track:
             extras=extras or None,
             media=media,
             profile_hash=str(arrays["profile_hash"]) if "profile_hash" in arrays else None,
+            times=arrays["times"].astype(float) if "times" in arrays else None,
         )
     except (ValueError, TypeError) as e:
         raise FacepuppetError(f"{path}: inconsistent track file ({e})") from e

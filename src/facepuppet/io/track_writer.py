@@ -9,6 +9,7 @@ the output. Nothing appears at the output unless :meth:`finish` succeeds.
 
 from __future__ import annotations
 
+import contextlib
 import tempfile
 import zipfile
 from pathlib import Path
@@ -70,13 +71,16 @@ class TrackWriter:
         Arrays stored as they are (``blendshape_names``).
     media, profile_hash
         Provenance (:class:`facepuppet.io.track.Track`).
+    stack : ExitStack, optional
+        Hold the file under a temporary name on this stack, renamed when it closes without error (with the
+        run's other outputs); without it :meth:`finish` renames at once.
 
     Use as a context manager; call :meth:`add` per frame and :meth:`finish` at the end.
     """
 
     def __init__(self, path, *, fps: float, frame_size, curve_names, point_names, backend: str,
                  static_extras: dict | None = None, media: dict | None = None,
-                 profile_hash: str | None = None) -> None:
+                 profile_hash: str | None = None, stack: contextlib.ExitStack | None = None) -> None:
         self.path = Path(path)
         folder = self.path.parent if str(self.path.parent) else Path(".")
         if not folder.is_dir():
@@ -91,8 +95,12 @@ class TrackWriter:
                         "rotation": _Spool((3, 3), np.float32, folder),
                         "translation": _Spool((3,), np.float32, folder)}
         self._extras: dict[str, _Spool] = {}
+        self._times = _Spool((), np.float64, folder)
+        self._vfr = False
         self.n_frames = 0
         self.n_valid = 0
+        # staged on the caller's stack: renamed with the run's other outputs when it closes cleanly
+        self._staged = None if stack is None else stack.enter_context(atomic_path(self.path, suffix=".npz"))
 
     def __enter__(self) -> TrackWriter:
         return self
@@ -100,8 +108,13 @@ class TrackWriter:
     def __exit__(self, *exc) -> None:
         self.close()
 
-    def add(self, features) -> None:
-        """Append one frame's :class:`~facepuppet.capture.features.FrameFeatures` (NaN where not valid)."""
+    def add(self, features, time: float | None = None) -> None:
+        """Append one frame's :class:`~facepuppet.capture.features.FrameFeatures` (NaN where not valid) at
+        ``time`` seconds (default ``index / fps``; the file keeps per-frame times only if one differs)."""
+        nominal = self.n_frames / self._meta["fps"]
+        t = nominal if time is None else float(time)
+        self._vfr = self._vfr or abs(t - nominal) > 1e-9
+        self._times.append(t)
         valid = bool(features.valid)
         s = self._spools
         s["valid"].append(valid)
@@ -122,6 +135,10 @@ class TrackWriter:
         self.n_frames += 1
         self.n_valid += valid
 
+    def set_media(self, media: dict | None) -> None:
+        """Record the media file tracked (known only once it has been read through)."""
+        self._meta["media"] = media
+
     def finish(self) -> None:
         """Assemble the ``.npz`` and rename it onto the output."""
         if self.n_frames == 0:
@@ -131,14 +148,16 @@ class TrackWriter:
                                 point_names=self.point_names, backend=m["backend"], media=m["media"],
                                 profile_hash=m["profile_hash"])
         scalars.update({k: np.asarray(v) for k, v in m["static_extras"].items()})
-        with atomic_path(self.path, suffix=".npz") as tmp:
+        spools = {**self._spools, **self._extras, **({"times": self._times} if self._vfr else {})}
+        with contextlib.ExitStack() as stack:
+            tmp = self._staged or stack.enter_context(atomic_path(self.path, suffix=".npz"))
             with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_DEFLATED, allowZip64=True) as zf:
                 for name, value in scalars.items():
                     with zf.open(f"{name}.npy", "w", force_zip64=True) as out:
                         np.lib.format.write_array(out, np.asarray(value), allow_pickle=False)
-                for name, spool in {**self._spools, **self._extras}.items():
+                for name, spool in spools.items():
                     spool.copy_into(zf, name)
 
     def close(self) -> None:
-        for spool in (*self._spools.values(), *self._extras.values()):
+        for spool in (*self._spools.values(), *self._extras.values(), self._times):
             spool.file.close()

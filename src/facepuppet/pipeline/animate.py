@@ -259,7 +259,8 @@ def track_frames(track: Track, source=None, *, max_frames: int | None = None) ->
                   if np.ndim(v) and len(v) == track.n_frames} or None
         feats = FrameFeatures(bool(track.valid[k]), track.curves[k], track.rotation[k], track.translation[k],
                               track.points[k], extras)
-        yield SourceFrame(k, k / float(track.fps), rgb, time.perf_counter(), feats)
+        t = k / float(track.fps) if track.times is None else float(track.times[k])
+        yield SourceFrame(k, t, rgb, time.perf_counter(), feats)
 
 
 class _Recorder:
