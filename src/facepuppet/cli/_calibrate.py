@@ -117,6 +117,11 @@ def run(args: argparse.Namespace) -> int:
         else:
             result = examples.from_marks(args.media, args.marks, config=config, track=track,
                                          names=character.names if character is not None else None)
+    from facepuppet._util.digest import file_digest
+
+    made_with = track.backend if track is not None and args.marks else args.backend
+    profile = config.tracker.profile if made_with == "color" else None
+    result = replace(result, backend=made_with, profile_hash=file_digest(profile) if profile else None)
     save_performer(args.output, result)
     left_out = [w[len("left out "):] for w in result.warnings if w.startswith("left out ")]
     for w in result.warnings:

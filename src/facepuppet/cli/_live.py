@@ -50,6 +50,7 @@ def run(args: argparse.Namespace) -> int:
     from facepuppet.live.frame import parse_address
     from facepuppet.live.session import LiveConfig, run_live
     from facepuppet.pipeline.gain import parse_gain
+    from facepuppet.pipeline.provenance import check_rig_backend, check_rig_profile
     from facepuppet.pipeline.rig import load_rig
     from facepuppet.pipeline.smoothing import parse_smoothing
     from facepuppet.pipeline.tracking import TrackerOptions
@@ -62,6 +63,9 @@ def run(args: argparse.Namespace) -> int:
         smoothing=parse_smoothing(args.smoothing), gain=parse_gain(args.gain), head_rotation=not args.no_head,
         pace=args.pace, max_frames=args.max_frames, status=not args.no_status)
     rig = load_rig(args.rig)
+    check_rig_backend(rig, args.backend, args.rig)
+    if args.backend == "color":
+        check_rig_profile(rig, args.profile, args.rig)
     with contextlib.ExitStack() as stack:
         senders = []
         if viewer is not None:

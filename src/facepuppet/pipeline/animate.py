@@ -30,6 +30,7 @@ from facepuppet.errors import FacepuppetError
 from facepuppet.io.track import Track
 from facepuppet.pipeline.gain import GainConfig
 from facepuppet.pipeline.outputs import CsvOutput, GlbOutput, PreviewOutput
+from facepuppet.pipeline.provenance import check_rig_backend, check_rig_profile, check_track_media
 from facepuppet.pipeline.smoothing import SmoothingConfig
 from facepuppet.pipeline.stream import (
     FrameMapper,
@@ -195,12 +196,19 @@ def animate(media: str | os.PathLike | None, rig, *, glb: str | os.PathLike | No
         raise ValueError("--preview needs the input media (the frames drawn on the left)")
     if track is None and media is None:
         raise ValueError("give the media to track, or --track")
+    track_arg = track
     if track is not None and not isinstance(track, Track):
         from facepuppet.io.track import load_track
 
         track = load_track(track)
     if track is not None:
         check_rig_matches(rig, track, rig_label)
+        check_rig_backend(rig, track.backend, rig_label, what="a track made with")
+        check_track_media(track, media, "--track" if not isinstance(track_arg, Track) else "track")
+    else:
+        check_rig_backend(rig, config.tracker.backend, rig_label)
+        if config.tracker.backend == "color":
+            check_rig_profile(rig, config.tracker.profile, rig_label)
         if not track.valid.any():
             raise FacepuppetError(f"{media or 'track'}: no face was tracked in any frame")
     mapper = FrameMapper(rig, smoothing=config.smoothing, gain=config.gain, rig_label=rig_label)
