@@ -32,6 +32,8 @@ __all__ = ["check_paths", "check_args", "describe", "TEMP_NAME_EXTRA"]
 #: Characters the temporary name adds to an output's name: "." + "." + 8 random characters + a suffix of up
 #: to 8 (``tempfile.mkstemp`` in ``atomic_path``).
 TEMP_NAME_EXTRA = 2 + 8 + 8
+#: Folders of special files: an output that is a symbolic link into one is refused whatever it points at.
+_SPECIAL_TREES = ("/dev/", "/proc/", "/sys/")
 #: Media given as a device rather than a file.
 CAMERA_PREFIX = "camera:"
 
@@ -91,6 +93,10 @@ def _check_output(label: str, path: str, *, folder_output: bool = False) -> None
         except OSError:
             raise FacepuppetError(f"{label} {describe(path)}: a symbolic link to nothing; refusing to replace "
                                   f"it") from None
+        special = next((hop for hop in _link_chain(path) if hop.startswith(_SPECIAL_TREES)), None)
+        if special is not None:
+            raise FacepuppetError(f"{label} {describe(path)}: a symbolic link to {describe(special)}; refusing "
+                                  f"to replace it")
         if folder_output:
             if not stat.S_ISDIR(st.st_mode):
                 raise FacepuppetError(f"{label} {describe(path)}: exists and is not a folder")
@@ -115,6 +121,16 @@ def _check_output(label: str, path: str, *, folder_output: bool = False) -> None
     if len(os.fsencode(p.name)) + TEMP_NAME_EXTRA > name_max:
         raise FacepuppetError(f"{label} {describe(path)}: file name too long (at most "
                               f"{name_max - TEMP_NAME_EXTRA} bytes here)")
+
+
+def _link_chain(path: str, limit: int = 40) -> list[str]:
+    """The absolute targets of the symbolic links ``path`` leads through, hop by hop."""
+    hops = []
+    current = os.path.abspath(path)
+    while os.path.islink(current) and len(hops) < limit:
+        current = os.path.normpath(os.path.join(os.path.dirname(current), os.readlink(current)))
+        hops.append(current)
+    return hops
 
 
 def _folder_files(path: str) -> list[str]:
