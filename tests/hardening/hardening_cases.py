@@ -43,12 +43,12 @@ class World:
         return sorted(p for p in self.folder.rglob("*") if p.is_file())
 
 
-def write_video(path: Path, seed: int) -> None:
+def write_video(path: Path, seed: int, n: int = N_FRAMES) -> None:
     import cv2
 
     rng = np.random.default_rng(seed)
     w = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), 30.0, (64, 64))
-    for _ in range(N_FRAMES):
+    for _ in range(n):
         w.write(rng.integers(0, 255, (64, 64, 3), dtype=np.uint8))
     w.release()
 

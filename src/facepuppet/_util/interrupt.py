@@ -9,6 +9,8 @@ set``. Under :func:`handle_signals` the handler only records the signal, then:
 - elsewhere it raises :class:`Interrupted` at once, unless numba's code is on the stack: then it is raised at
   the next Python call made outside numba (a one-shot trace function).
 
+A second signal while the first is still waiting (numba compiling a kernel for a minute) raises at once.
+
 :class:`Interrupted` is a :class:`KeyboardInterrupt`, so ``except Exception`` does not swallow it and every
 ``finally`` (temporary files, worker processes) runs. Its exit code is 128 + the signal number.
 """
@@ -66,7 +68,10 @@ def _raise_later(frame, event, arg):
 
 
 def _handler(signum, frame) -> None:
+    again = _state["pending"] is not None
     _state["pending"] = signum
+    if again:        # a second signal while the first waits (a kernel compiling): stop now
+        check()
     if _state["depth"] > 0:
         return
     if _in_numba(frame):

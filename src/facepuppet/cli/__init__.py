@@ -113,6 +113,10 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr)
         return 1
     except Exception as e:  # noqa: BLE001 - the CLI's contract: one line, never a traceback
+        cause = e.__cause__ or e.__context__
+        if isinstance(cause, Interrupted):   # raised inside compiled code's C wrapper (SystemError)
+            print(f"facepuppet {args.command}: interrupted ({cause.name}); nothing written", file=sys.stderr)
+            return cause.exit_code
         if args.verbose:
             logging.exception("failed")
         print(f"facepuppet {args.command}: error: {error_line(e)}", file=sys.stderr)
