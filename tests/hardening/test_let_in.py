@@ -7,7 +7,6 @@ import zipfile
 
 import numpy as np
 import pytest
-
 from hardening_cases import animate_args, run_refused
 
 

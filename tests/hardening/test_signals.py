@@ -8,7 +8,6 @@ import time
 from pathlib import Path
 
 import pytest
-
 from hardening_cases import ROOT, assert_one_line, make_track, snapshot, write_video
 
 #: Seconds to wait for a command to reach its frame loop, and for it to end after the signal.

@@ -5,7 +5,6 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-
 from hardening_cases import animate_args, make_track, run_refused
 
 
