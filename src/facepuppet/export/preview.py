@@ -69,6 +69,11 @@ def open_preview(path: str | os.PathLike, fps: float, size: tuple[int, int]) -> 
     import cv2
 
     w, h = (int(size[0]) // 2 * 2, int(size[1]) // 2 * 2)     # codecs want even sizes
+    try:
+        str(path).encode("utf-8")
+    except UnicodeEncodeError:
+        shown = str(path).encode("utf-8", "backslashreplace").decode("utf-8")
+        raise FacepuppetError(f"{shown}: the name is not valid UTF-8 (OpenCV cannot write it)") from None
     with atomic_path(path, suffix=".mp4") as tmp:
         writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*_FOURCC), float(fps), (w, h))
         if not writer.isOpened():

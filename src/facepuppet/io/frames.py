@@ -72,8 +72,21 @@ class MediaSource:
             self._closer = None
 
 
+def _opencv_name(path, label=None) -> str:
+    """``path`` as OpenCV takes it; FacepuppetError for a name that is not valid UTF-8 (OpenCV crashes on one)."""
+    text = str(path)
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        shown = text.encode("utf-8", "backslashreplace").decode("utf-8")
+        raise FacepuppetError(f"{label or shown}: the name is not valid UTF-8; rename the file") from None
+    return text
+
+
 def _read_image(path: Path) -> np.ndarray:
     import cv2
+
+    _opencv_name(path)
 
     bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
     if bgr is None:
@@ -139,7 +152,7 @@ def open_media(path: str | os.PathLike) -> MediaSource:
     FacepuppetError
         If the medium is missing, unreadable, empty, or of no known kind; the message names it.
     """
-    label = str(path)
+    label = _opencv_name(path)
     if label.startswith("camera:"):
         return _open_video(label[len("camera:"):], label, camera=True)
     p = Path(path)
