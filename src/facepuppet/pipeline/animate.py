@@ -205,12 +205,12 @@ def animate(media: str | os.PathLike | None, rig, *, glb: str | os.PathLike | No
         check_rig_matches(rig, track, rig_label)
         check_rig_backend(rig, track.backend, rig_label, what="a track made with")
         check_track_media(track, media, "--track" if not isinstance(track_arg, Track) else "track")
+        if not track.valid.any():
+            raise FacepuppetError(f"{media or 'track'}: no face was tracked in any frame")
     else:
         check_rig_backend(rig, config.tracker.backend, rig_label)
         if config.tracker.backend == "color":
             check_rig_profile(rig, config.tracker.profile, rig_label)
-        if not track.valid.any():
-            raise FacepuppetError(f"{media or 'track'}: no face was tracked in any frame")
     mapper = FrameMapper(rig, smoothing=config.smoothing, gain=config.gain, rig_label=rig_label)
     t0 = time.perf_counter()
     with contextlib.ExitStack() as stack:
