@@ -158,3 +158,13 @@ def test_no_hang_on_a_fifo_given_as_a_track_to_the_library(tmp_path):
     t.join(10)
     assert done and "not a regular file" in done[0]
     assert snapshot([tmp_path]) == {fifo: "special"}
+
+
+def test_fifo_inside_an_obj_character_folder(capsys, world, tmp_path):
+    import shutil
+
+    folder = tmp_path / "obj"
+    shutil.copytree(world.objdir, folder)
+    os.mkfifo(folder / "zzz.obj")
+    run_refused(capsys, ["rig", "--performer", world.performer, "--character", folder, "-o", tmp_path / "r.npz"],
+                world, folders=[tmp_path], names=["--character", "zzz.obj", "FIFO"])

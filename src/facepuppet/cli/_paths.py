@@ -6,7 +6,8 @@ refuses, with one line naming the argument and the path:
 
 - an empty path (which ``pathlib`` would read as ``.``);
 - a name that is not valid UTF-8 (OpenCV crashes on such names) or holds a NUL;
-- an input that is a FIFO, a socket or a device (reading one blocks or never ends), or a symbolic link to one;
+- an input that is a FIFO, a socket or a device (reading one blocks or never ends), or a symbolic link to one,
+  or an input folder holding one;
 - an output that exists and is not a regular file (a folder, a device node such as ``/dev/null``, a FIFO, a
   symbolic link to any of these): the atomic rename would replace it;
 - an output whose folder is missing or not writable, or whose temporary name (``.NAME.XXXXXXXX.SUFFIX``,
@@ -20,6 +21,7 @@ Camera names (``camera:N``) and unset options are skipped.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import stat
 from collections.abc import Iterable, Mapping
@@ -172,7 +174,14 @@ def check_paths(inputs: Mapping[str, str | None], outputs: Mapping[str, str | No
     for label, path in ins.items():
         taken.append((label, path))
         if os.path.isdir(path):
-            taken += [(f"{label} (in folder {describe(path)})", f) for f in _folder_files(path)]
+            members = _folder_files(path)
+            for f in members:   # a reader of the folder (OBJ character, image folder) would block on a FIFO
+                with contextlib.suppress(OSError):
+                    kind = _kind(os.stat(f).st_mode)
+                    if kind is not None:
+                        raise FacepuppetError(f"{label} {describe(path)}: holds {describe(os.path.basename(f))}, "
+                                              f"which is {kind}, not a file")
+            taken += [(f"{label} (in folder {describe(path)})", f) for f in members]
     for label, path in outs.items():
         real = os.path.realpath(path)
         ident = _identity(path)

@@ -156,5 +156,5 @@ def load_performer(path: str | os.PathLike) -> Performer:
             backend=str(arrays["backend"]) if "backend" in arrays else None,
             profile_hash=str(arrays["profile_hash"]) if "profile_hash" in arrays else None,
         )
-    except (ValueError, TypeError) as e:
+    except (ValueError, TypeError, IndexError, KeyError) as e:
         raise FacepuppetError(f"{path}: invalid key expressions file ({e})") from e

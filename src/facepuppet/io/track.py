@@ -179,5 +179,5 @@ def load_track(path: str | os.PathLike) -> Track:
             profile_hash=str(arrays["profile_hash"]) if "profile_hash" in arrays else None,
             times=arrays["times"].astype(float) if "times" in arrays else None,
         )
-    except (ValueError, TypeError) as e:
+    except (ValueError, TypeError, IndexError, KeyError) as e:
         raise FacepuppetError(f"{path}: inconsistent track file ({e})") from e
