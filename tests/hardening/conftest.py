@@ -7,7 +7,8 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from hardening_cases import World, make_track, write_video
+
+from hardening.hardening_cases import World, make_track, write_video
 
 
 @pytest.fixture(scope="session")

@@ -6,7 +6,8 @@ import os
 import threading
 
 import pytest
-from hardening_cases import animate_args, assert_one_line, run_refused, run_subprocess, snapshot
+
+from hardening.hardening_cases import animate_args, assert_one_line, run_refused, run_subprocess, snapshot
 
 
 def _bad_name(folder, suffix):

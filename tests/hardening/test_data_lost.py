@@ -3,7 +3,8 @@
 import os
 
 import pytest
-from hardening_cases import animate_args, run_refused
+
+from hardening.hardening_cases import animate_args, run_refused
 
 
 def test_animate_output_is_its_media(capsys, world):

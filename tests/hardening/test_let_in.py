@@ -7,7 +7,8 @@ import zipfile
 
 import numpy as np
 import pytest
-from hardening_cases import animate_args, run_refused
+
+from hardening.hardening_cases import animate_args, run_refused
 
 
 def _gltf_with_uri(folder, uri: str, byte_length: int = 16):

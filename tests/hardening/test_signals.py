@@ -8,7 +8,8 @@ import time
 from pathlib import Path
 
 import pytest
-from hardening_cases import ROOT, assert_one_line, make_track, snapshot, write_video
+
+from hardening.hardening_cases import ROOT, assert_one_line, make_track, snapshot, write_video
 
 #: Seconds to wait for a command to reach its frame loop, and for it to end after the signal.
 REACH, END = 60.0, 30.0

@@ -5,7 +5,8 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from hardening_cases import animate_args, make_track, run_refused
+
+from hardening.hardening_cases import animate_args, make_track, run_refused
 
 
 def test_rig_of_another_backend(capsys, world, tmp_path):
