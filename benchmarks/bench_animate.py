@@ -73,8 +73,8 @@ def main(argv=None) -> int:
     model = args.model or os.environ.get("FACEPUPPET_FACE_LANDMARKER") or str(assets / "models" /
                                                                                 "face_landmarker.task")
 
+    from facepuppet.capture.color.profile import calibrate_profile, save_profile
     from facepuppet.capture.landmarks import BLENDSHAPE_NAMES, MediaPipeTracker
-    from facepuppet.capture.profile import calibrate_profile, save_profile
     from facepuppet.capture.tracking import track_media
     from facepuppet.io.frames import open_media
     from facepuppet.io.performer import Performer

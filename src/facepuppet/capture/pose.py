@@ -20,7 +20,7 @@ from functools import lru_cache
 import numba as nb
 import numpy as np
 
-from facepuppet.capture._jit import INNER, KERNEL
+from facepuppet._util.jit import INNER, KERNEL
 from facepuppet.capture.curves import CURVE_NAMES, POINT_SAMPLES, bernstein, curve_points, fit_bezier
 
 __all__ = [

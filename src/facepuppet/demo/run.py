@@ -88,7 +88,7 @@ Measured again on 2026-11-30 (``benchmarks/eval_demo_color.py`` and scripts on t
   frames (their curves 1.8 to 1.2 px, the error unchanged while the pose is off).
 
 Since its profile learnt the lips and each brow from the look of the face crop
-(:mod:`facepuppet.capture.shape_models`), the colour tracker is under the bar (0.405, 0.419, 0.411 on seeds
+(:mod:`facepuppet.capture.color.shape_models`), the colour tracker is under the bar (0.405, 0.419, 0.411 on seeds
 0-2; 0.408, 0.374, 0.465 on seeds 3-5; its curves 1.0 px from the true ones instead of 1.9) and the demo's
 default; the true curves remain a choice (``--tracker truth``), as a check of the chain without image analysis.
 
@@ -315,11 +315,11 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
     -------
     DemoResult
     """
-    from facepuppet.capture.overlay import write_overlay_video
     from facepuppet.capture.tracking import track_media
     from facepuppet.demo.performer import render_performer
     from facepuppet.demo.script import calibration_script, performance_script
     from facepuppet.demo.toy import toy_character, toy_colors
+    from facepuppet.export.overlay import write_overlay_video
     from facepuppet.io.gltf import write_glb
     from facepuppet.io.performer import load_performer
     from facepuppet.io.rig import fit_rig, save_rig
@@ -351,7 +351,7 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
 
     t = time.perf_counter()
     if config.tracker == "color":
-        from facepuppet.capture.precompile import precompile
+        from facepuppet.capture.color.precompile import precompile
 
         # The tracker's kernels compile in other processes while the performer is rendered (on a fresh
         # machine; later they load from numba's cache). The profile's shape models read the lips, brows and
@@ -370,8 +370,8 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
     t = step("write videos", t)
 
     if config.tracker == "color":
-        from facepuppet.capture.color_tracker import ColorTracker, ColorTrackerConfig
-        from facepuppet.capture.profile import calibrate_profile, save_profile
+        from facepuppet.capture.color.profile import calibrate_profile, save_profile
+        from facepuppet.capture.color.tracker import ColorTracker, ColorTrackerConfig
 
         # Without the optional landmark model, whatever the environment names (with it the tracker would
         # place its first eye anchors on MediaPipe's eyes): the demo's result is the same on every machine.

@@ -242,7 +242,7 @@ def _write_csv(path, rig, anim: Animation, rotation: np.ndarray | None) -> None:
 def _write_preview(path, media, rig, anim: Animation, config: AnimateConfig, rotation: np.ndarray | None,
                    colors: np.ndarray | None) -> None:
     from facepuppet.capture.features import FrameFeatures
-    from facepuppet.capture.overlay import draw_overlay
+    from facepuppet.export.overlay import draw_overlay
     from facepuppet.export.preview import write_preview
     from facepuppet.export.render import Camera, render_mesh
     from facepuppet.io.frames import open_media

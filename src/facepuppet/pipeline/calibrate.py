@@ -876,7 +876,7 @@ def make_profile(media: str | os.PathLike, path: str | os.PathLike, *, labels: T
     Track
         The MediaPipe track used as labels (its blendshape scores serve ``--auto``).
     """
-    from facepuppet.capture.profile import calibrate_profile, save_profile
+    from facepuppet.capture.color.profile import calibrate_profile, save_profile
     from facepuppet.io.frames import open_media
 
     if labels is None:

@@ -4,8 +4,7 @@ import cv2
 import numpy as np
 import pytest
 
-from facepuppet.capture.curves import CURVE_NAMES
-from facepuppet.capture.lids import (
+from facepuppet.capture.color.lids import (
     EYES,
     PATCH_SIZE,
     apply_lid_model,
@@ -14,6 +13,7 @@ from facepuppet.capture.lids import (
     fit_lid_model,
     lid_offsets,
 )
+from facepuppet.capture.curves import CURVE_NAMES
 
 SPAN = 24.0
 CENTRES = (np.array([40.0, 30.0]), np.array([80.0, 30.0]))

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from facepuppet.capture.blobs import BlobConfig, column_profile, grow_blob
+from facepuppet.capture.color.blobs import BlobConfig, column_profile, grow_blob
 
 PLAIN = BlobConfig(seed_level=0.7, grow_level=0.4, radius=0, close=0, open=0)
 

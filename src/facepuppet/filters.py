@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
-from facepuppet.capture._jit import KERNEL
+from facepuppet._util.jit import KERNEL
 
 __all__ = ["OneEuroConfig", "OneEuro"]
 

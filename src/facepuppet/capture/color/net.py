@@ -1,7 +1,7 @@
 """The colour-weight network of §3.1: 11 sub-area means -> 10 sigmoid units -> Eq. 1's weights (w1..w4).
 
 Conventions: face crops as made by the colour tracker (upright, ``px`` pixels per face unit, extent
-:data:`~facepuppet.capture.face.CROP_EXTENT`), RGB uint8.
+:data:`~facepuppet.capture.color.face.CROP_EXTENT`), RGB uint8.
 
 The paper feeds the network "11 representative intensity values for subareas of each facial feature (skin,
 eyes, eyelids, nostrils, a mouth, and so on)". Ours (:data:`SUBAREAS`): the mean luma (0..1) of nine sub-areas
@@ -10,7 +10,7 @@ of the light and not only its strength, the red and blue chromaticity R/(R+G+B),
 
 Training uses scikit-learn's :class:`~sklearn.neural_network.MLPRegressor` (one hidden layer of 10 logistic
 units); the fitted layers are kept as plain arrays, so evaluating needs only numpy and a profile loads without
-pickle. Training targets come from :func:`separating_weights` (see :mod:`facepuppet.capture._calibrate`).
+pickle. Training targets come from :func:`separating_weights` (see :mod:`facepuppet.capture.color.train`).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from facepuppet.capture.face import CROP_EXTENT
+from facepuppet.capture.color.face import CROP_EXTENT
 
 __all__ = ["SUBAREAS", "N_INPUTS", "WEIGHT_SCALE", "ColourNet", "subarea_means", "separating_weights",
            "constrain_weights", "fisher_separation"]

@@ -1,7 +1,7 @@
 """The colour tracker's eye anchors calibrated on the landmark backend's eyes, and that backend shared.
 
 The colour tracker aligns its face frame on the eye blobs: the centres it finds by mean shift of the feature
-intensity (:func:`~facepuppet.capture.outlines.eye_centres`) are mapped onto the profile's eye anchors, and the
+intensity (:func:`~facepuppet.capture.color.outlines.eye_centres`) are mapped onto the profile's eye anchors, and the
 layout follows. Where a blob's centre sits relative to the eye itself depends on the performer (lashes, lid
 shadows, brows close above): the generic anchors may put the layout a little off, too high or too wide. When
 the landmark backend (MediaPipe) is available, the tracker asks it once, at its first acquisition, where the
@@ -19,9 +19,9 @@ import threading
 
 import numpy as np
 
+from facepuppet.capture.color.face import similarity_from_points
+from facepuppet.capture.color.lids import EYES
 from facepuppet.capture.curves import bezier_points
-from facepuppet.capture.face import similarity_from_points
-from facepuppet.capture.lids import EYES
 from facepuppet.errors import FacepuppetError
 
 __all__ = ["eye_centres_of", "calibrated_anchors", "shared_landmarker", "landmark_curves"]

@@ -1,7 +1,7 @@
 """Feature outlines read off the feature intensity (paper §3.2): the colour tracker's per-frame rules.
 
 In a face crop whose feature intensity C (Eq. 1 and the contrast C) is known, each feature's rectangle gets
-a blob (:func:`~facepuppet.capture.blobs.blob_kernel`) and the layout's curves are moved onto the blob's
+a blob (:func:`~facepuppet.capture.color.blobs.blob_kernel`) and the layout's curves are moved onto the blob's
 column profile:
 
 * eyes: the lower lid onto the blob's bottom edge, the upper lid onto the lower edge of the lash line at
@@ -17,7 +17,7 @@ column profile:
 
 Each curve keeps its shape and moves by one robust number (the median shift of its middle control points
 over the central samples), so a noisy column cannot bend it. The work is compiled with numba, one kernel per
-feature (eyes, brows, mouth; :mod:`facepuppet.capture._jit`): it is the tracker's per-frame work, a few hundred
+feature (eyes, brows, mouth; :mod:`facepuppet._util.jit`): it is the tracker's per-frame work, a few hundred
 small steps that cost more to call from Python than to do.
 
 Conventions: crop pixels, x right, y down; curves (C, 4, 2) control points in :data:`CURVE_NAMES` order;
@@ -29,8 +29,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from facepuppet.capture._jit import INNER, KERNEL
-from facepuppet.capture.blobs import blob_kernel, label8, open_mask
+from facepuppet._util.jit import INNER, KERNEL
+from facepuppet.capture.color.blobs import blob_kernel, label8, open_mask
 from facepuppet.capture.curves import CURVE_NAMES, bernstein
 
 __all__ = ["BOX_NAMES", "BLOB_KINDS", "OUTLINE_PARTS", "eye_centres", "feature_intensity", "move_boxes",
@@ -726,7 +726,7 @@ def outline_features(C: np.ndarray, raw: np.ndarray, value: np.ndarray, layout: 
     boxes : (len(BOX_NAMES), 4) int64
         Feature rectangles, clipped to the crop.
     blob_params : (len(BLOB_KINDS), 5) float64
-        :meth:`~facepuppet.capture.blobs.BlobConfig.as_array` per kind.
+        :meth:`~facepuppet.capture.color.blobs.BlobConfig.as_array` per kind.
     unit : float
         Crop pixels per face unit.
     mouth_reach : float
@@ -846,7 +846,7 @@ def _cr_cb(r: int, g: int, b: int):
 @nb.njit(**KERNEL)
 def skin_fraction(crop: np.ndarray, boxes: np.ndarray, table: np.ndarray) -> float:
     """Fraction of the pixels of the rectangles whose (Cr, Cb) the skin table accepts (Y in 35..250), as
-    :func:`~facepuppet.capture.face.skin_probability`."""
+    :func:`~facepuppet.capture.color.face.skin_probability`."""
     n = 0
     hit = 0
     for k in range(len(boxes)):
@@ -863,7 +863,7 @@ def skin_fraction(crop: np.ndarray, boxes: np.ndarray, table: np.ndarray) -> flo
 @nb.njit(**KERNEL)
 def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarray, min_saturation: float,
                       skin_boxes: np.ndarray, feature_boxes: np.ndarray):
-    """Eq. 1 and the contrast C over a face crop in one pass (see :mod:`facepuppet.capture.color`).
+    """Eq. 1 and the contrast C over a face crop in one pass (see :mod:`facepuppet.capture.color.transform`).
 
     I = w1 (V - G) / V + (w3 - w2) V + w2 + w4 G(H) with 8-bit V and G as in
     :func:`~facepuppet.capture.color.transform`; then C = smoothstep between the skin level (median of I

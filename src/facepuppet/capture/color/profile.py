@@ -2,7 +2,7 @@
 
 A profile holds the colour-weight network of §3.1 (its layer arrays; rebuilt without pickle), the lips' hue
 function G, the performer's skin colour, and the performer's mean feature layout in the face frame (curves in
-face units, see :mod:`facepuppet.capture.face`) with the blob anchors the tracker aligns the face frame on.
+face units, see :mod:`facepuppet.capture.color.face`) with the blob anchors the tracker aligns the face frame on.
 :func:`default_profile` is a generic adult face with generic weights; it needs no calibration and no
 MediaPipe. :func:`calibrate_profile` learns a performer's profile from labelled frames.
 """
@@ -15,9 +15,9 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from facepuppet.capture.color import DEFAULT_WEIGHTS, LipHue
+from facepuppet.capture.color.face import SkinModel
+from facepuppet.capture.color.transform import DEFAULT_WEIGHTS, LipHue
 from facepuppet.capture.curves import CURVE_NAMES
-from facepuppet.capture.face import SkinModel
 from facepuppet.errors import FacepuppetError
 from facepuppet.io.atomic import atomic_path
 
@@ -95,12 +95,12 @@ class Profile:
     weights : (4,) float
         Eq. 1's weights when there is no network (or before its first estimate).
     net : dict of str -> ndarray
-        The 11-10-4 network's arrays (see :mod:`facepuppet.capture.color_net`); empty for none.
+        The 11-10-4 network's arrays (see :mod:`facepuppet.capture.color.net`); empty for none.
     lids : dict of str -> ndarray
-        The eyelid model's arrays (see :mod:`facepuppet.capture.lids`); empty for none (the rules alone).
+        The eyelid model's arrays (see :mod:`facepuppet.capture.color.lids`); empty for none (the rules alone).
     shapes : dict of str -> dict of str -> ndarray
         Per family (``"lips"``, ``"brow_left"``, ``"brow_right"``) the arrays of its shape model (see
-        :mod:`facepuppet.capture.shape_models`); empty for none (the rules alone).
+        :mod:`facepuppet.capture.color.shape_models`); empty for none (the rules alone).
     name : str
     mouth_reach : float
         Farthest the mouth corners move from the layout's, face units (:data:`GENERIC_MOUTH_REACH` unless
@@ -152,7 +152,7 @@ def save_profile(path: str | os.PathLike, profile: Profile) -> None:
 
 def _shapes(data: dict, path) -> dict:
     """The shape models of a profile file's ``shapes_<family>_<array>`` keys, checked against the families."""
-    from facepuppet.capture.shape_models import FAMILIES, PATCH_SIZE
+    from facepuppet.capture.color.shape_models import FAMILIES, PATCH_SIZE
 
     out: dict = {}
     for key, value in data.items():
@@ -241,9 +241,9 @@ def calibrate_profile(frames, curves, *, base: Profile | None = None, name: str 
     Profile
         With the performer's layout and anchors, skin model, lip hue and the trained colour network.
     """
-    from facepuppet.capture import _calibrate
+    from facepuppet.capture.color import train
 
-    return _calibrate.calibrate(frames, curves, base=base or default_profile(), name=name, augment=augment,
+    return train.calibrate(frames, curves, base=base or default_profile(), name=name, augment=augment,
                                 seed=seed, progress=progress, options=tracker)
 
 

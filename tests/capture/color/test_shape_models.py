@@ -5,9 +5,8 @@ import cv2
 import numpy as np
 import pytest
 
-from facepuppet.capture.curves import CURVE_NAMES, bezier_points
-from facepuppet.capture.profile import GENERIC_LAYOUT, Profile, load_profile, save_profile
-from facepuppet.capture.shape_models import (
+from facepuppet.capture.color.profile import GENERIC_LAYOUT, Profile, load_profile, save_profile
+from facepuppet.capture.color.shape_models import (
     FAMILIES,
     MARGINS,
     PATCH_SIZE,
@@ -18,6 +17,7 @@ from facepuppet.capture.shape_models import (
     fit_shape_model,
     training_pairs,
 )
+from facepuppet.capture.curves import CURVE_NAMES, bezier_points
 from facepuppet.errors import FacepuppetError
 
 LIPS = FAMILIES["lips"]
@@ -143,7 +143,7 @@ def test_profile_round_trip_and_damaged_models(tmp_path, rng):
 def test_the_tracker_reads_the_lips_with_the_profiles_model():
     """A lips model that always reads the same curves (no weights, an intercept): the tracker's lips are those
     curves in the box of the layout it placed, on every frame, whatever the rules would have found."""
-    from facepuppet.capture.color_tracker import ColorTracker, ColorTrackerConfig
+    from facepuppet.capture.color.tracker import ColorTracker, ColorTrackerConfig
     from facepuppet.demo.performer import render_performer
     from facepuppet.demo.script import calibration_script
 
@@ -170,10 +170,10 @@ def test_the_tracker_reads_the_lips_with_the_profiles_model():
 def test_a_profile_with_shape_models_keeps_the_face_frame_filtered(monkeypatch):
     """The filters restart only when the face is (re)acquired or time does not move, not on every frame: a
     reset put under the shape filter's condition once restarted the face frame's filter on every frame."""
-    from facepuppet.capture.color_tracker import ColorTracker
-    from facepuppet.capture.one_euro import OneEuro
+    from facepuppet.capture.color.tracker import ColorTracker
     from facepuppet.demo.performer import render_performer
     from facepuppet.demo.script import calibration_script
+    from facepuppet.filters import OneEuro
 
     frames, _ = render_performer(calibration_script(hold=0.3, transition=0.1, head_motion=0.0), size=(256, 256))
     resets = []
@@ -191,8 +191,8 @@ def test_a_profile_with_shape_models_keeps_the_face_frame_filtered(monkeypatch):
 def test_the_rules_a_profiles_models_replace_are_not_run():
     """With models of every family the tracker runs none of §3.2's rules (no snakes, no eyelid model); its
     curves are those it gives when every rule runs, since the models replace them."""
-    from facepuppet.capture.color_tracker import ColorTracker, ColorTrackerConfig
-    from facepuppet.capture.outlines import OUTLINE_PARTS
+    from facepuppet.capture.color.outlines import OUTLINE_PARTS
+    from facepuppet.capture.color.tracker import ColorTracker, ColorTrackerConfig
     from facepuppet.demo.performer import render_performer
     from facepuppet.demo.script import calibration_script
 

@@ -18,11 +18,9 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from facepuppet.capture.blobs import BlobConfig
-from facepuppet.capture.color import lip_hue_table
-from facepuppet.capture.curves import CURVE_NAMES, POINT_NAMES, bezier_points
-from facepuppet.capture.eye_anchors import calibrated_anchors, eye_centres_of, landmark_curves, shared_landmarker
-from facepuppet.capture.face import (
+from facepuppet.capture.color.blobs import BlobConfig
+from facepuppet.capture.color.eye_anchors import calibrated_anchors, eye_centres_of, landmark_curves, shared_landmarker
+from facepuppet.capture.color.face import (
     CROP_EXTENT,
     FEATURE_BOXES,
     FaceFrame,
@@ -30,10 +28,8 @@ from facepuppet.capture.face import (
     light_balance,
     similarity_from_points,
 )
-from facepuppet.capture.features import FrameFeatures
-from facepuppet.capture.lids import EYES, apply_lid_model
-from facepuppet.capture.one_euro import OneEuro, OneEuroConfig
-from facepuppet.capture.outlines import (
+from facepuppet.capture.color.lids import EYES, apply_lid_model
+from facepuppet.capture.color.outlines import (
     BLOB_KINDS,
     BOX_NAMES,
     OUTLINE_PARTS,
@@ -43,11 +39,15 @@ from facepuppet.capture.outlines import (
     outline_features,
     skin_fraction,
 )
+from facepuppet.capture.color.precompile import wait_pending
+from facepuppet.capture.color.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
+from facepuppet.capture.color.shape_models import FAMILIES, apply_shape_models
+from facepuppet.capture.color.snakes import LOWER, UPPER, SnakeConfig, SnakeSolver, snake_fields
+from facepuppet.capture.color.transform import lip_hue_table
+from facepuppet.capture.curves import CURVE_NAMES, POINT_NAMES, bezier_points
+from facepuppet.capture.features import FrameFeatures
 from facepuppet.capture.pose import STABLE_FEATURES, estimate_pose, points_in_head, pose_point_index
-from facepuppet.capture.precompile import wait_pending
-from facepuppet.capture.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
-from facepuppet.capture.shape_models import FAMILIES, apply_shape_models
-from facepuppet.capture.snakes import LOWER, UPPER, SnakeConfig, SnakeSolver, snake_fields
+from facepuppet.filters import OneEuro, OneEuroConfig
 
 __all__ = ["ColorTrackerConfig", "ColorTracker"]
 
@@ -109,7 +109,7 @@ class ColorTrackerConfig:
         performer_a 0.84 both).
     shape_filter : OneEuroConfig or None
         Filter of the control points the profile's shape models read (lips, brows, eyes)
-        (:mod:`~facepuppet.capture.shape_models`), whose readings are steadier than the rules' and whose
+        (:mod:`~facepuppet.capture.color.shape_models`), whose readings are steadier than the rules' and whose
         lag costs more than their jitter; None passes them unfiltered.
     frame_filter : OneEuroConfig
         Filter of the face frame (eye midpoint and eye-to-eye vector, in face units).
@@ -138,7 +138,7 @@ class ColorTrackerConfig:
         Least likeness to a face of a frame placed by the landmark backend (-1: trust the backend).
     anchor_calibration : float
         At the first acquisition, move the eye anchors toward the eye blobs of a crop whose layout sits on the
-        eyes the landmark backend sees (if available; :func:`~facepuppet.capture.eye_anchors.calibrated_anchors`)
+        eyes the landmark backend sees (if available; :func:`~facepuppet.capture.color.eye_anchors.calibrated_anchors`)
         by this fraction of the way (0: never). One frame's evidence is weighed against the generic anchors:
         half the way made all three shared clips closer to MediaPipe than the whole way or none.
     anchor_scale_limits : (float, float)
@@ -146,7 +146,7 @@ class ColorTrackerConfig:
     anchor_noise_floor : float
         Face units an eye anchor must move by for the calibration to move the anchors at all.
     outline_parts : tuple of str
-        Which features §3.2's rules read (:data:`~facepuppet.capture.outlines.OUTLINE_PARTS`); the others keep
+        Which features §3.2's rules read (:data:`~facepuppet.capture.color.outlines.OUTLINE_PARTS`); the others keep
         the layout's curves. A part's rules are skipped anyway where the profile's shape models read it (its
         curves would be replaced); the snakes go with the lips' rules, the eyelid model with the eyes'.
     resize_cost : float
@@ -204,7 +204,7 @@ class ColorTracker:
     Parameters
     ----------
     profile : Profile, path or None
-        The performer profile (a .npz of :func:`~facepuppet.capture.profile.save_profile`); default the
+        The performer profile (a .npz of :func:`~facepuppet.capture.color.profile.save_profile`); default the
         built-in generic profile.
     config : ColorTrackerConfig
     """
@@ -224,7 +224,7 @@ class ColorTracker:
         self._weights = np.asarray(profile.weights, dtype=np.float32)
         self._net = None
         if profile.net:
-            from facepuppet.capture.color_net import ColourNet
+            from facepuppet.capture.color.net import ColourNet
 
             self._net = ColourNet.from_arrays(profile.net)
         px = config.px
@@ -564,7 +564,7 @@ class ColorTracker:
     def intensity(self, crop: np.ndarray) -> np.ndarray:
         """Eq. 1 and the contrast C on a face crop (H, W, 3) uint8 -> (H, W) float32 in [0, 1]."""
         if self._net is not None and (self._count % self.config.reestimate_every == 0):
-            from facepuppet.capture.color_net import subarea_means
+            from facepuppet.capture.color.net import subarea_means
 
             self._weights = self._net.predict(subarea_means(crop, self.config.px))
         self._count += 1

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from facepuppet.capture.color import LipHue, channels, contrast, lip_hue_table, transform
+from facepuppet.capture.color.transform import LipHue, channels, contrast, lip_hue_table, transform
 
 # (R, G, B) -> (M, K, V, hue in degrees, saturated?) computed by hand:
 # M = (max - G) / max, K = 1 - max / 255, V = max / 255, hue by the HSV hexcone formula.

@@ -3,8 +3,7 @@
 import numpy as np
 import pytest
 
-from facepuppet.capture.curves import bernstein
-from facepuppet.capture.snakes import (
+from facepuppet.capture.color.snakes import (
     LOWER,
     UPPER,
     SnakeConfig,
@@ -14,6 +13,7 @@ from facepuppet.capture.snakes import (
     snake_energy,
     snake_fields,
 )
+from facepuppet.capture.curves import bernstein
 
 UP = np.array([0.0, -1.0])          # upright head: up is -y in the image
 S = np.linspace(0, 1, 200)

@@ -10,7 +10,7 @@ loads its kernels.
 
 The tasks call the kernels on small synthetic inputs of the types the tracker passes them (types select the
 compiled code, values do not). Kernels and the functions they call are compiled so that processes compiling at
-once never write the same cache entry differently (:mod:`facepuppet.capture._jit`). A test runs the tracker
+once never write the same cache entry differently (:mod:`facepuppet._util.jit`). A test runs the tracker
 after :func:`precompile` and checks that it compiles nothing.
 """
 
@@ -37,10 +37,10 @@ _CROP = 96                                              # synthetic crop side, p
 
 
 def _outline_inputs() -> tuple:
-    """Arguments of :func:`~facepuppet.capture.outlines.outline_features` of the tracker's types: a blank crop,
+    """Arguments of :func:`~facepuppet.capture.color.outlines.outline_features` of the tracker's types: a blank crop,
     the generic layout placed on it, the feature rectangles."""
-    from facepuppet.capture.color_tracker import _BLOB_PARAMS
-    from facepuppet.capture.outlines import BOX_NAMES
+    from facepuppet.capture.color.outlines import BOX_NAMES
+    from facepuppet.capture.color.tracker import _BLOB_PARAMS
     from facepuppet.capture.pose import generic_curves
 
     n = _CROP
@@ -56,9 +56,9 @@ def _outline_inputs() -> tuple:
 def _frame_work(snakes: bool) -> None:
     """What the colour tracker compiles for a frame besides the outlines: Eq. 1 and the contrast, the eye
     search, the skin test, the rectangles, the lid model, the filters and the head pose; or the snakes."""
-    from facepuppet.capture.color_tracker import _SNAKE_IDX, ColorTracker, ColorTrackerConfig
-    from facepuppet.capture.lids import PATCH_SIZE, apply_lid_model
-    from facepuppet.capture.snakes import snake_fields
+    from facepuppet.capture.color.lids import PATCH_SIZE, apply_lid_model
+    from facepuppet.capture.color.snakes import snake_fields
+    from facepuppet.capture.color.tracker import _SNAKE_IDX, ColorTracker, ColorTrackerConfig
 
     tracker = ColorTracker(config=ColorTrackerConfig(landmark_acquire=False))
     try:
@@ -86,7 +86,7 @@ def run_task(name: str) -> float:
     """Compile (or load from the cache) the kernels of one of :data:`TASKS`; returns the seconds it took."""
     t0 = time.perf_counter()
     if name in ("eyes", "brows", "mouth"):
-        from facepuppet.capture.outlines import outline_features
+        from facepuppet.capture.color.outlines import outline_features
 
         outline_features(*_outline_inputs(), parts=(name,))
     elif name in ("frame", "snakes"):
@@ -137,12 +137,12 @@ def precompile(tasks: tuple[str, ...] = TASKS, workers: int | None = None) -> Pr
     """Start compiling the kernels of ``tasks`` into numba's cache in ``workers`` processes (default: one per
     core, at most one per task) and return at once.
 
-    Wait for the returned job before tracking; a :class:`~facepuppet.capture.color_tracker.ColorTracker` made
+    Wait for the returned job before tracking; a :class:`~facepuppet.capture.color.tracker.ColorTracker` made
     in this process waits for it anyway (:func:`wait_pending`), since compiling the same kernels in two
     processes at once only slows both. With fewer than two workers nothing is started: the tracker compiles
     on first use, as fast as one worker would.
 
-    The workers are fresh interpreters running this module (``python -m facepuppet.capture.precompile TASK
+    The workers are fresh interpreters running this module (``python -m facepuppet.capture.color.precompile TASK
     ...``), so the caller's script is not imported again in them.
     """
     unknown = [t for t in tasks if t not in TASKS]

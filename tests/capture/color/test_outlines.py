@@ -4,10 +4,8 @@ import cv2
 import numpy as np
 import pytest
 
-from facepuppet.capture.blobs import close_mask, ellipse_kernel, label8, open_mask
-from facepuppet.capture.color import DEFAULT_WEIGHTS, LipHue, contrast, lip_hue_table, transform
-from facepuppet.capture.curves import CURVE_NAMES
-from facepuppet.capture.outlines import (
+from facepuppet.capture.color.blobs import close_mask, ellipse_kernel, label8, open_mask
+from facepuppet.capture.color.outlines import (
     OUTLINE_PARTS,
     _hsv,
     _interp,
@@ -18,6 +16,8 @@ from facepuppet.capture.outlines import (
     feature_intensity,
     outline_features,
 )
+from facepuppet.capture.color.transform import DEFAULT_WEIGHTS, LipHue, contrast, lip_hue_table, transform
+from facepuppet.capture.curves import CURVE_NAMES
 
 
 @pytest.mark.parametrize("size", range(1, 10))
@@ -143,8 +143,8 @@ def test_eye_centres_find_two_bright_spots():
 
 
 def test_ycrcb_and_skin_fraction_match_opencv_and_the_skin_model():
-    from facepuppet.capture.face import SkinModel, skin_probability
-    from facepuppet.capture.outlines import _cr_cb, skin_fraction
+    from facepuppet.capture.color.face import SkinModel, skin_probability
+    from facepuppet.capture.color.outlines import _cr_cb, skin_fraction
 
     rng = np.random.default_rng(4)
     rgb = rng.integers(0, 256, (5000, 3)).astype(np.uint8)
@@ -158,7 +158,7 @@ def test_ycrcb_and_skin_fraction_match_opencv_and_the_skin_model():
 
 
 def test_snake_fields_are_opencvs_blur_and_central_differences():
-    from facepuppet.capture.snakes import snake_fields
+    from facepuppet.capture.color.snakes import snake_fields
 
     img = np.random.default_rng(5).random((37, 52)).astype(np.float32)
     for blur in (0, 3, 5):
@@ -172,7 +172,7 @@ def test_snake_fields_are_opencvs_blur_and_central_differences():
 
 
 def test_move_boxes_rounds_shifts_and_clips_to_the_crop():
-    from facepuppet.capture.outlines import move_boxes
+    from facepuppet.capture.color.outlines import move_boxes
 
     boxes = np.array([[10, 10, 20, 20], [0, 0, 5, 5], [90, 40, 100, 50]], dtype=np.int64)
     out = move_boxes(boxes, np.array([True, False, True]), 2, np.array([2.4, -1.6]), np.array([0.3, 0.2]), 96, 48)
@@ -180,8 +180,8 @@ def test_move_boxes_rounds_shifts_and_clips_to_the_crop():
 
 
 def test_two_point_similarity_is_the_least_squares_one():
-    from facepuppet.capture.color_tracker import _similarity_of_pairs
-    from facepuppet.capture.face import similarity_from_points
+    from facepuppet.capture.color.face import similarity_from_points
+    from facepuppet.capture.color.tracker import _similarity_of_pairs
 
     src = np.array([[10.0, 20.0], [40.0, 24.0]])
     dst = np.array([[13.0, 18.0], [44.0, 29.0]])
@@ -190,7 +190,7 @@ def test_two_point_similarity_is_the_least_squares_one():
 
 def _scene():
     """A blank face crop as the generic tracker sees it: layout, rectangles and blob options in crop pixels."""
-    from facepuppet.capture.color_tracker import _BLOB_PARAMS, ColorTracker
+    from facepuppet.capture.color.tracker import _BLOB_PARAMS, ColorTracker
 
     t = ColorTracker()
     w, h = t._size
@@ -229,8 +229,8 @@ def _scene_inputs():
 def test_brow_curve_tilts_with_a_slanted_brow():
     """A brow band drawn slanting down to the outside: the brow curve's ends follow the band's slant (the
     layout's ends are level); a level band leaves the curve level."""
+    from facepuppet.capture.color.outlines import BOX_NAMES, outline_features
     from facepuppet.capture.curves import CURVE_NAMES
-    from facepuppet.capture.outlines import BOX_NAMES, outline_features
 
     layout, boxes, params, (h, w), px = _scene()
     c = CURVE_NAMES.index("brow_left")
@@ -251,8 +251,8 @@ def test_brow_curve_tilts_with_a_slanted_brow():
 def test_lower_outer_lip_keeps_the_layouts_thickness():
     """A mouth blob whose lower lip is pale (the blob ends little below the crease): the lower outer lip stays
     the layout's lip thickness below the lower inner one instead of on the blob's bottom."""
+    from facepuppet.capture.color.outlines import outline_features
     from facepuppet.capture.curves import CURVE_NAMES
-    from facepuppet.capture.outlines import outline_features
 
     layout, boxes, params, (h, w), px = _scene()
     lo, li = CURVE_NAMES.index("lip_lower_outer"), CURVE_NAMES.index("lip_lower_inner")
@@ -271,7 +271,7 @@ def test_lower_outer_lip_keeps_the_layouts_thickness():
 
 
 def test_closed_columns_is_opencvs_vertical_closing_and_median_level_numpys():
-    from facepuppet.capture.outlines import _closed_columns, _median_level
+    from facepuppet.capture.color.outlines import _closed_columns, _median_level
 
     rng = np.random.default_rng(6)
     for _ in range(100):
@@ -307,8 +307,8 @@ def test_brow_curve_on_a_faint_brow_above_a_glasses_rim_and_out_to_its_ends():
     """A faint brow band with a glasses' rim below it that holds the blob: the brow curve goes onto the band's
     upper edge (``_BROW_DEPTH`` below it), not onto the rim; a band wider than the layout's brow (a turned head's
     near side) stretches the curve's ends out to the band's; a band no wider leaves the layout's ends."""
+    from facepuppet.capture.color.outlines import _BROW_DEPTH, outline_features
     from facepuppet.capture.curves import CURVE_NAMES, bezier_points
-    from facepuppet.capture.outlines import _BROW_DEPTH, outline_features
 
     layout, boxes, params, (h, w), px = _scene()
     c = CURVE_NAMES.index("brow_left")

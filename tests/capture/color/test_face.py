@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 import pytest
 
-from facepuppet.capture.face import FaceFrame, find_face, light_balance, similarity_from_points, skin_probability
+from facepuppet.capture.color.face import FaceFrame, find_face, light_balance, similarity_from_points, skin_probability
 
 SKIN = (225, 170, 140)
 GREY = (128, 128, 128)

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
-from facepuppet.capture._jit import INNER, KERNEL
+from facepuppet._util.jit import INNER, KERNEL
 
 __all__ = ["BlobConfig", "Blob", "grow_blob", "column_profile", "blob_kernel", "ellipse_kernel"]
 

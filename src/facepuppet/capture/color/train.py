@@ -1,10 +1,10 @@
-"""Learning a performer profile from labelled frames (§3.1), for :func:`~facepuppet.capture.profile.calibrate_profile`.
+"""Learning a performer profile from labelled frames (§3.1), (:func:`calibrate`).
 
 Labels are feature curves in image pixels (CURVE_NAMES order), for example from the MediaPipe backend. From
 them: the face frame of each frame (eye centres = midpoints of the eye corners), the performer's mean layout in
 face units, the skin colour, the lips' hue, and for the colour network (inputs: :func:`subarea_means`) its
 training targets, the Fisher weights that best separate the labelled feature pixels from skin
-(:func:`~facepuppet.capture.color_net.separating_weights`), on the frames as filmed and on copies relit darker,
+(:func:`~facepuppet.capture.color.net.separating_weights`), on the frames as filmed and on copies relit darker,
 brighter, warmer and cooler, so the network learns how the best weights move with the light.
 """
 
@@ -16,11 +16,11 @@ from dataclasses import replace
 import cv2
 import numpy as np
 
-from facepuppet.capture.color import LipHue, channels, lip_hue_table
-from facepuppet.capture.color_net import SUBAREAS, ColourNet, separating_weights, subarea_means
+from facepuppet.capture.color.face import CROP_EXTENT, FaceFrame, SkinModel
+from facepuppet.capture.color.net import SUBAREAS, ColourNet, separating_weights, subarea_means
+from facepuppet.capture.color.shape_models import FAMILIES, JITTER, fit_shape_model, training_pairs
+from facepuppet.capture.color.transform import LipHue, channels, lip_hue_table
 from facepuppet.capture.curves import CURVE_NAMES, bezier_points
-from facepuppet.capture.face import CROP_EXTENT, FaceFrame, SkinModel
-from facepuppet.capture.shape_models import FAMILIES, JITTER, fit_shape_model, training_pairs
 from facepuppet.errors import FacepuppetError
 
 log = logging.getLogger(__name__)
@@ -128,10 +128,10 @@ def _mouth_reach(layouts: np.ndarray, layout: np.ndarray, least: float) -> float
 
 
 def calibrate(frames, curves, *, base, name: str, augment: int, seed: int, progress: bool, options=None):
-    """See :func:`facepuppet.capture.profile.calibrate_profile`."""
+    """See :func:`facepuppet.capture.color.profile.calibrate_profile`."""
     from tqdm import tqdm
 
-    from facepuppet.capture.color_tracker import ColorTracker, ColorTrackerConfig
+    from facepuppet.capture.color.tracker import ColorTracker, ColorTrackerConfig
 
     options = options if options is not None else ColorTrackerConfig()
     curves = np.asarray(curves, dtype=float)
@@ -238,12 +238,12 @@ _LID_SHIFT, _LID_SCALE = 0.04, 0.06
 
 
 def _lid_model(crops, curves_px, tracked, rng) -> dict:
-    """The eyelid model (:mod:`facepuppet.capture.lids`) learnt on the labelled crops; empty with too few eyes.
+    """The eyelid model (:mod:`facepuppet.capture.color.lids`) learnt on the labelled crops; empty with too few eyes.
 
     Patches are cut around the eyes' corners as the tracker found them (``tracked``, crop pixels, None where it
     lost the face), and jittered copies of them; targets are the labelled lids seen from there.
     """
-    from facepuppet.capture.lids import EYES, eye_geometry, eye_patch, fit_lid_model
+    from facepuppet.capture.color.lids import EYES, eye_geometry, eye_patch, fit_lid_model
 
     xs, ys = [], []
     for crop, cpx, tpx in zip(crops, curves_px, tracked, strict=True):

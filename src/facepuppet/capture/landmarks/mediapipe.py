@@ -30,7 +30,7 @@ from facepuppet.capture.pose import HeadPose, estimate_pose, points_in_head, pos
 from facepuppet.errors import FacepuppetError
 
 __all__ = ["MediaPipeTracker", "MediaPipeConfig", "MP_CURVES", "MP_POSE_LANDMARKS", "BLENDSHAPE_NAMES",
-           "MODEL_ENV", "curves_from_landmarks"]
+           "MODEL_ENV", "curves_from_landmarks", "resolve_model_path"]
 
 log = logging.getLogger(__name__)
 

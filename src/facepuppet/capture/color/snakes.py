@@ -22,7 +22,7 @@ import cv2
 import numba as nb
 import numpy as np
 
-from facepuppet.capture._jit import INNER, KERNEL
+from facepuppet._util.jit import INNER, KERNEL
 from facepuppet.capture.curves import bernstein
 
 __all__ = ["SnakeConfig", "SnakeSolver", "snake_fields", "snake_energy", "minimise_snakes", "box_guess", "UPPER",

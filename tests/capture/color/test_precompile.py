@@ -8,7 +8,7 @@ import textwrap
 
 import pytest
 
-from facepuppet.capture.precompile import TASKS, precompile, run_task
+from facepuppet.capture.color.precompile import TASKS, precompile, run_task
 
 #: Tracks frames of the digital performer with the generic profile (snakes and every rule) and with a profile
 #: carrying an eyelid model and shape models, then prints every kernel that had to be compiled or that was
@@ -18,10 +18,10 @@ _TRACK = textwrap.dedent("""
     import numba
     import numpy as np
     import facepuppet
-    from facepuppet.capture.color_tracker import ColorTracker, ColorTrackerConfig
-    from facepuppet.capture.lids import PATCH_SIZE
-    from facepuppet.capture.profile import Profile
-    from facepuppet.capture.shape_models import FAMILIES, PATCH_SIZE as SHAPE_PATCH
+    from facepuppet.capture.color.tracker import ColorTracker, ColorTrackerConfig
+    from facepuppet.capture.color.lids import PATCH_SIZE
+    from facepuppet.capture.color.profile import Profile
+    from facepuppet.capture.color.shape_models import FAMILIES, PATCH_SIZE as SHAPE_PATCH
     from facepuppet.demo.performer import render_performer
     from facepuppet.demo.script import calibration_script
 
@@ -59,7 +59,7 @@ def test_after_precompile_the_tracker_compiles_nothing(tmp_path):
     profile and with one that has an eyelid model and shape models, loading each kernel it calls (for one set
     of argument types) and compiling none."""
     cache = str(tmp_path / "numba-cache")
-    done = _run("from facepuppet.capture.precompile import precompile\n"
+    done = _run("from facepuppet.capture.color.precompile import precompile\n"
                 "import json; print(json.dumps(precompile(workers=2).wait()))", cache)
     assert done.returncode == 0, done.stderr[-2000:]
     took = json.loads(done.stdout.strip().splitlines()[-1])
@@ -81,7 +81,7 @@ def test_precompile_checks_its_tasks_and_runs_nothing_on_one_worker():
 
 def test_a_worker_that_fails_is_reported_not_raised(monkeypatch):
     """A worker that cannot run (here: no interpreter) leaves its tasks to the caller, with the reason."""
-    import facepuppet.capture.precompile as pc
+    import facepuppet.capture.color.precompile as pc
 
     monkeypatch.setattr(pc.sys, "executable", "false")
     job = pc.precompile(tasks=("eyes", "frame"), workers=2)

@@ -6,9 +6,8 @@ import cv2
 import numpy as np
 import pytest
 
-from facepuppet.capture import _calibrate as cal
-from facepuppet.capture.color import channels, lip_hue_table
-from facepuppet.capture.color_net import (
+from facepuppet.capture.color import train as cal
+from facepuppet.capture.color.net import (
     N_INPUTS,
     WEIGHT_SCALE,
     ColourNet,
@@ -17,7 +16,7 @@ from facepuppet.capture.color_net import (
     separating_weights,
     subarea_means,
 )
-from facepuppet.capture.profile import (
+from facepuppet.capture.color.profile import (
     GENERIC_LAYOUT,
     GENERIC_MOUTH_REACH,
     PROFILE_VERSION,
@@ -27,6 +26,7 @@ from facepuppet.capture.profile import (
     load_profile,
     save_profile,
 )
+from facepuppet.capture.color.transform import channels, lip_hue_table
 from facepuppet.errors import FacepuppetError
 
 

@@ -1,6 +1,6 @@
 """The performer's lips, brows and eyes read from the look of the face crop: linear models learnt with the profile.
 
-The colour tracker's rules (:mod:`~facepuppet.capture.outlines`) move each lip and brow curve of the layout by
+The colour tracker's rules (:mod:`~facepuppet.capture.color.outlines`) move each lip and brow curve of the layout by
 a few numbers read off its blob: the mouth's corners and one shift per curve, the brow's height and tilt. The
 blob's edges follow the light and the head's turn as much as the expression, and a curve's shape beyond those
 few numbers is the layout's. On the digital performer the lips' points wandered from the true ones nearly as
@@ -8,7 +8,7 @@ much as the expressions move them (1.9 against 2.2 mm RMS) and the brows' 1.1 ag
 and brows made true the demo's error fell from 0.71 to 0.15. So with the performer profile (§3.1, trained
 on frames labelled by the landmark backend or, in the demo, by the true curves) comes, per family, a ridge
 regression from the look of the face crop around the family to its curves, as the eyelid model
-(:mod:`~facepuppet.capture.lids`) does for the lids. Each eye has one too (both lids and their corners): the
+(:mod:`~facepuppet.capture.color.lids`) does for the lids. Each eye has one too (both lids and their corners): the
 rules read the eyes on the contrast C, whose weights the colour network predicts, and two networks trained on
 the same frames to nearly the same loss gave the demo 0.41 and 0.52 (a numeric difference of 1e-6 between two
 OpenCV builds set them apart); with the eyes' models both gave 0.37-0.41 (seeds 0-2).

@@ -1,6 +1,6 @@
 import numpy as np
 
-from facepuppet.capture.one_euro import OneEuro, OneEuroConfig
+from facepuppet.filters import OneEuro, OneEuroConfig
 
 
 def test_constant_passes_unchanged():

@@ -1,0 +1,1 @@
+"""Small helpers of every stage; they import nothing of facepuppet but its errors."""
