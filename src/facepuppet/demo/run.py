@@ -370,14 +370,16 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
     t = step("write videos", t)
 
     if config.tracker == "color":
-        from facepuppet.capture.color.profile import calibrate_profile, save_profile
-        from facepuppet.capture.color.tracker import ColorTracker, ColorTrackerConfig
+        from facepuppet.capture.color.config import ColorTrackerConfig, LandmarkConfig
+        from facepuppet.capture.color.profile import save_profile
+        from facepuppet.capture.color.tracker import ColorTracker
+        from facepuppet.capture.color.train import train_profile
 
         # Without the optional landmark model, whatever the environment names (with it the tracker would
         # place its first eye anchors on MediaPipe's eyes): the demo's result is the same on every machine.
-        options = ColorTrackerConfig(landmark_acquire=False, anchor_calibration=0.0)
-        profile = calibrate_profile(list(cal_frames), cal_curves, name="demo performer", progress=False,
-                                    tracker=options)
+        options = ColorTrackerConfig(landmarks=LandmarkConfig(enabled=False, anchor_calibration=0.0))
+        profile = train_profile(list(cal_frames), cal_curves, name="demo performer", progress=False,
+                                config=options)
         kernels.wait()
         save_profile(files["performer-profile.npz"], profile)
         t = step("train profile", t)

@@ -876,7 +876,8 @@ def make_profile(media: str | os.PathLike, path: str | os.PathLike, *, labels: T
     Track
         The MediaPipe track used as labels (its blendshape scores serve ``--auto``).
     """
-    from facepuppet.capture.color.profile import calibrate_profile, save_profile
+    from facepuppet.capture.color.profile import save_profile
+    from facepuppet.capture.color.train import train_profile
     from facepuppet.io.frames import open_media
 
     if labels is None:
@@ -891,7 +892,7 @@ def make_profile(media: str | os.PathLike, path: str | os.PathLike, *, labels: T
                 frames.append(rgb)
             if k >= keep[-1]:
                 break
-    profile = calibrate_profile(frames, labels.curves[keep[:len(frames)]], name=Path(media).stem)
+    profile = train_profile(frames, labels.curves[keep[:len(frames)]], name=Path(media).stem)
     save_profile(path, profile)
     return labels
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from facepuppet.capture.color.blobs import close_mask, ellipse_kernel, label8, open_mask
-from facepuppet.capture.color.outlines import (
+from facepuppet.capture.color.rules import (
     OUTLINE_PARTS,
     _hsv,
     _interp,
@@ -144,7 +144,7 @@ def test_eye_centres_find_two_bright_spots():
 
 def test_ycrcb_and_skin_fraction_match_opencv_and_the_skin_model():
     from facepuppet.capture.color.face import SkinModel, skin_probability
-    from facepuppet.capture.color.outlines import _cr_cb, skin_fraction
+    from facepuppet.capture.color.rules import _cr_cb, skin_fraction
 
     rng = np.random.default_rng(4)
     rgb = rng.integers(0, 256, (5000, 3)).astype(np.uint8)
@@ -172,7 +172,7 @@ def test_snake_fields_are_opencvs_blur_and_central_differences():
 
 
 def test_move_boxes_rounds_shifts_and_clips_to_the_crop():
-    from facepuppet.capture.color.outlines import move_boxes
+    from facepuppet.capture.color.rules import move_boxes
 
     boxes = np.array([[10, 10, 20, 20], [0, 0, 5, 5], [90, 40, 100, 50]], dtype=np.int64)
     out = move_boxes(boxes, np.array([True, False, True]), 2, np.array([2.4, -1.6]), np.array([0.3, 0.2]), 96, 48)
@@ -229,7 +229,7 @@ def _scene_inputs():
 def test_brow_curve_tilts_with_a_slanted_brow():
     """A brow band drawn slanting down to the outside: the brow curve's ends follow the band's slant (the
     layout's ends are level); a level band leaves the curve level."""
-    from facepuppet.capture.color.outlines import BOX_NAMES, outline_features
+    from facepuppet.capture.color.rules import BOX_NAMES, outline_features
     from facepuppet.capture.curves import CURVE_NAMES
 
     layout, boxes, params, (h, w), px = _scene()
@@ -251,7 +251,7 @@ def test_brow_curve_tilts_with_a_slanted_brow():
 def test_lower_outer_lip_keeps_the_layouts_thickness():
     """A mouth blob whose lower lip is pale (the blob ends little below the crease): the lower outer lip stays
     the layout's lip thickness below the lower inner one instead of on the blob's bottom."""
-    from facepuppet.capture.color.outlines import outline_features
+    from facepuppet.capture.color.rules import outline_features
     from facepuppet.capture.curves import CURVE_NAMES
 
     layout, boxes, params, (h, w), px = _scene()
@@ -271,7 +271,7 @@ def test_lower_outer_lip_keeps_the_layouts_thickness():
 
 
 def test_closed_columns_is_opencvs_vertical_closing_and_median_level_numpys():
-    from facepuppet.capture.color.outlines import _closed_columns, _median_level
+    from facepuppet.capture.color.rules import _closed_columns, _median_level
 
     rng = np.random.default_rng(6)
     for _ in range(100):
@@ -307,7 +307,7 @@ def test_brow_curve_on_a_faint_brow_above_a_glasses_rim_and_out_to_its_ends():
     """A faint brow band with a glasses' rim below it that holds the blob: the brow curve goes onto the band's
     upper edge (``_BROW_DEPTH`` below it), not onto the rim; a band wider than the layout's brow (a turned head's
     near side) stretches the curve's ends out to the band's; a band no wider leaves the layout's ends."""
-    from facepuppet.capture.color.outlines import _BROW_DEPTH, outline_features
+    from facepuppet.capture.color.rules import _BROW_DEPTH, outline_features
     from facepuppet.capture.curves import CURVE_NAMES, bezier_points
 
     layout, boxes, params, (h, w), px = _scene()

@@ -87,4 +87,6 @@ def test_a_worker_that_fails_is_reported_not_raised(monkeypatch):
     job = pc.precompile(tasks=("eyes", "frame"), workers=2)
     assert job.wait() == {"eyes": "worker exited with 1", "frame": "worker exited with 1"}
     pc.wait_pending()                                   # nothing left pending
-    assert pc._pending == []
+    from facepuppet.capture.color import jobs
+
+    assert jobs.pending() == ()

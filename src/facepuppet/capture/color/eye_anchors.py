@@ -1,7 +1,7 @@
 """The colour tracker's eye anchors calibrated on the landmark backend's eyes, and that backend shared.
 
 The colour tracker aligns its face frame on the eye blobs: the centres it finds by mean shift of the feature
-intensity (:func:`~facepuppet.capture.color.outlines.eye_centres`) are mapped onto the profile's eye anchors, and the
+intensity (:func:`eye_centres`) are mapped onto the profile's eye anchors, and the
 layout follows. Where a blob's centre sits relative to the eye itself depends on the performer (lashes, lid
 shadows, brows close above): the generic anchors may put the layout a little off, too high or too wide. When
 the landmark backend (MediaPipe) is available, the tracker asks it once, at its first acquisition, where the
@@ -17,16 +17,23 @@ import logging
 import os
 import threading
 
+import numba as nb
 import numpy as np
 
+from facepuppet._util.jit import KERNEL
 from facepuppet.capture.color.face import similarity_from_points
 from facepuppet.capture.color.lids import EYES
 from facepuppet.capture.curves import bezier_points
 from facepuppet.errors import FacepuppetError
 
-__all__ = ["eye_centres_of", "calibrated_anchors", "shared_landmarker", "landmark_curves"]
+__all__ = ["EYE_STEPS", "EYE_LEAST", "eye_centres", "eye_centres_of", "calibrated_anchors", "shared_landmarker",
+           "landmark_curves"]
 
 log = logging.getLogger(__name__)
+
+# Tuning constants of the eye search (eye_centres)
+EYE_STEPS = 3        # steps   mean-shift steps of the search from the anchors
+EYE_LEAST = 0.01     # C^2     least mean of C^2 over a window for it to hold an eye
 
 #: Landmark backends (image mode) by model path and options, made on first need and kept for the process:
 #: loading the model costs far more than a tracker's whole acquisition. None: not available.
@@ -109,3 +116,36 @@ def landmark_curves(landmarker, rgb: np.ndarray) -> np.ndarray | None:
         landmarker.reset()                  # shared: the last user's face says nothing about this image
         found = landmarker.track(rgb, 0)
     return found.curves if found.valid else None
+
+
+@nb.njit(**KERNEL)
+def eye_centres(C: np.ndarray, anchors: np.ndarray, half_w: int, half_h: int):
+    """Eye centres (2, 2) in crop pixels by :data:`EYE_STEPS` mean-shift steps of C² around the expected anchors.
+
+    ``C``: (H, W) float32 contrast C; ``anchors``: (>= 2, 2) expected centres, right eye first; the window is
+    ``2 half_w + 1`` by ``2 half_h + 1`` pixels.
+
+    Returns (ok, centres): ok is False when a window holds too little feature intensity.
+    """
+    h, w = C.shape
+    out = np.zeros((2, 2))
+    least = EYE_LEAST * (2 * half_w + 1) * (2 * half_h + 1)
+    for k in range(2):
+        cx, cy = anchors[k, 0], anchors[k, 1]
+        for _ in range(EYE_STEPS):
+            x0 = int(np.round(cx)) - half_w
+            y0 = int(np.round(cy)) - half_h
+            xa, ya = max(x0, 0), max(y0, 0)
+            xb, yb = min(x0 + 2 * half_w + 1, w), min(y0 + 2 * half_h + 1, h)
+            total = sx = sy = 0.0
+            for y in range(ya, yb):
+                for x in range(xa, xb):
+                    v = float(C[y, x]) ** 2
+                    total += v
+                    sx += v * (x - xa)
+                    sy += v * (y - ya)
+            if total < least:
+                return False, out
+            cx, cy = sx / total + xa, sy / total + ya
+        out[k, 0], out[k, 1] = cx, cy
+    return True, out

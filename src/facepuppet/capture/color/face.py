@@ -23,6 +23,9 @@ __all__ = [
     "find_face",
     "light_balance",
     "similarity_from_points",
+    "similarity_of_pairs",
+    "same_frame",
+    "then_affine",
 ]
 
 #: Extent of the face crop in face units: x0, y0, x1, y1 (brows above, chin below).
@@ -289,3 +292,27 @@ class FaceFrame:
         dr = (other.roll - self.roll + np.pi) % (2 * np.pi) - np.pi
         r = self.roll + alpha * dr
         return FaceFrame(o, s * np.array([np.cos(r), np.sin(r)]))
+
+
+def same_frame(a: FaceFrame, b: FaceFrame, move: float = 0.1, size: float = 0.1) -> bool:
+    """Whether two face frames are within ``move`` face units and ``size`` in log size of each other."""
+    return bool(np.hypot(*(a.origin - b.origin)) < move * a.unit and abs(np.log(a.unit / b.unit)) < size)
+
+
+def then_affine(P: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """The affine map (2, 3) that applies ``P`` (2, 3), then ``Q`` (2, 3)."""
+    out = np.empty((2, 3))
+    out[:, :2] = Q[:, :2] @ P[:, :2]
+    out[:, 2] = Q[:, :2] @ P[:, 2] + Q[:, 2]
+    return out
+
+
+def similarity_of_pairs(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
+    """The similarity (2, 3) taking the two points ``src`` (2, 2) exactly onto ``dst`` (2, 2)."""
+    (sx0, sy0), (sx1, sy1) = np.asarray(src).tolist()
+    (dx0, dy0), (dx1, dy1) = np.asarray(dst).tolist()
+    ux, uy, vx, vy = sx1 - sx0, sy1 - sy0, dx1 - dx0, dy1 - dy0
+    den = max(ux * ux + uy * uy, 1e-12)
+    a, b = (ux * vx + uy * vy) / den, (ux * vy - uy * vx) / den
+    mx, my = 0.5 * (sx0 + sx1), 0.5 * (sy0 + sy1)
+    return np.array([[a, -b, 0.5 * (dx0 + dx1) - (a * mx - b * my)], [b, a, 0.5 * (dy0 + dy1) - (b * mx + a * my)]])

@@ -1,6 +1,6 @@
 """The performer's eyelids read from the look of the eye: a linear model learnt with the performer profile.
 
-The colour tracker's rules (:mod:`~facepuppet.capture.color.outlines`) place the lids on the eye blob's edges. On
+The colour tracker's rules (:mod:`~facepuppet.capture.color.rules`) place the lids on the eye blob's edges. On
 a closing eye the blob does not shrink with the lid: the lid's crease and the lash line stay as dark as the
 open eye (measured on the shared clips, the rules' eye opening correlates with MediaPipe's at 0.3 or below).
 What does change is the eye's appearance: the sclera and iris disappear under skin. So with the performer

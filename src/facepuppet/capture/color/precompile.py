@@ -2,7 +2,7 @@
 
 numba compiles a kernel on its first call and keeps the machine code in its on-disk cache, where every later
 process finds it (all the tracker's kernels load in under a second). On a fresh machine, though, the colour
-tracker's first frame waits for the whole compile: about 40 s on one core. :func:`precompile` splits that work
+tracker's first frame waits for the whole compile. :func:`precompile` splits that work
 into :data:`TASKS` (the outline kernels of the eyes, the brows and the mouth, the rest of a frame's work, the
 snakes) and hands them to worker processes, one per core, while the caller goes on (the demo renders its performer
 meanwhile); :meth:`Precompile.wait` returns when the kernels are in the cache. With a warm cache each task only
@@ -26,6 +26,8 @@ from typing import IO
 
 import numpy as np
 
+from facepuppet.capture.color import jobs
+
 __all__ = ["TASKS", "Precompile", "precompile", "run_task", "wait_pending"]
 
 #: The work :func:`precompile` can hand out, longest first: the outline kernels of each part (the eyes' task
@@ -36,48 +38,31 @@ TASKS = ("eyes", "frame", "brows", "mouth", "snakes")
 _CROP = 96                                              # synthetic crop side, pixels
 
 
-def _outline_inputs() -> tuple:
-    """Arguments of :func:`~facepuppet.capture.color.outlines.outline_features` of the tracker's types: a blank crop,
+def _outline_inputs() -> dict:
+    """Arguments of :func:`~facepuppet.capture.color.rules.outline_features` of the tracker's types: a blank crop,
     the generic layout placed on it, the feature rectangles."""
-    from facepuppet.capture.color.outlines import BOX_NAMES
-    from facepuppet.capture.color.tracker import _BLOB_PARAMS
+    from facepuppet.capture.color.profile import GENERIC_MOUTH_REACH
+    from facepuppet.capture.color.rules import BLOB_PARAMS, BOX_NAMES
     from facepuppet.capture.pose import generic_curves
 
     n = _CROP
-    C = np.zeros((n, n), np.float32)
-    raw = np.zeros((n, n), np.float32)
-    value = np.zeros((n, n), np.uint8)
     g = generic_curves()[..., :2]
     layout = np.ascontiguousarray((g - g.min(axis=(0, 1))) / np.ptp(g, axis=(0, 1)).max() * (0.6 * n) + 0.2 * n)
     boxes = np.tile(np.array([n // 4, n // 4, 3 * n // 4, 3 * n // 4], np.int64), (len(BOX_NAMES), 1))
-    return C, raw, value, layout, np.zeros(2), boxes, _BLOB_PARAMS, 0.5 * n, 0.12
+    return {"C": np.zeros((n, n), np.float32), "raw": np.zeros((n, n), np.float32),
+            "value": np.zeros((n, n), np.uint8), "layout": layout, "mouth_offset": np.zeros(2), "boxes": boxes,
+            "blob_params": BLOB_PARAMS, "unit": 0.5 * n, "mouth_reach": GENERIC_MOUTH_REACH}
 
 
-def _frame_work(snakes: bool) -> None:
-    """What the colour tracker compiles for a frame besides the outlines: Eq. 1 and the contrast, the eye
-    search, the skin test, the rectangles, the lid model, the filters and the head pose; or the snakes."""
-    from facepuppet.capture.color.lids import PATCH_SIZE, apply_lid_model
-    from facepuppet.capture.color.snakes import snake_fields
-    from facepuppet.capture.color.tracker import _SNAKE_IDX, ColorTracker, ColorTrackerConfig
+def _frame_work(part: str) -> None:
+    """What the colour tracker compiles for a frame besides the outlines (Eq. 1 and the contrast, the eye
+    search, the skin test, the rectangles, the lid model, the filters and the head pose), or the snakes."""
+    from facepuppet.capture.color.config import ColorTrackerConfig, LandmarkConfig
+    from facepuppet.capture.color.tracker import ColorTracker
 
-    tracker = ColorTracker(config=ColorTrackerConfig(landmark_acquire=False))
+    tracker = ColorTracker(config=ColorTrackerConfig(landmarks=LandmarkConfig(enabled=False)))
     try:
-        w, h = tracker._size
-        crop = np.zeros((h, w, 3), np.uint8)
-        curves = np.ascontiguousarray(tracker._layout_px, dtype=np.float64)
-        if snakes:
-            tracker._snakes(curves[_SNAKE_IDX], snake_fields(np.zeros((h, w), np.float32), 5))
-            return
-        C = tracker.intensity(crop)
-        tracker._eye_centres(C)
-        tracker._skin_ok(crop)
-        tracker._boxes_now()
-        lids = {"coef": np.zeros((2, PATCH_SIZE[0] * PATCH_SIZE[1])), "intercept": np.zeros(2)}
-        apply_lid_model(curves.copy(), crop, lids)
-        tracker._curve_filter(curves, 1 / 30)
-        tracker._curve_filter(curves, 1 / 30)          # the first sample only starts the filter
-        tracker._features(curves, (w, h))
-        tracker._features(curves, (w, h))               # from the previous frame's pose
+        tracker.warmup(part)
     finally:
         tracker.close()
 
@@ -86,11 +71,12 @@ def run_task(name: str) -> float:
     """Compile (or load from the cache) the kernels of one of :data:`TASKS`; returns the seconds it took."""
     t0 = time.perf_counter()
     if name in ("eyes", "brows", "mouth"):
-        from facepuppet.capture.color.outlines import outline_features
+        from facepuppet.capture.color.rules import outline_features
 
-        outline_features(*_outline_inputs(), parts=(name,))
+        inputs = _outline_inputs()
+        outline_features(inputs.pop("C"), **inputs, parts=(name,))
     elif name in ("frame", "snakes"):
-        _frame_work(snakes=name == "snakes")
+        _frame_work(name)
     else:
         raise ValueError(f"unknown precompile task {name!r}; known: {', '.join(TASKS)}")
     return time.perf_counter() - t0
@@ -124,13 +110,8 @@ class Precompile:
                 stdout.close()
                 stderr.close()
             self._result = out
-            if self in _pending:
-                _pending.remove(self)
+            jobs.discard(self)
         return self._result
-
-
-#: Jobs started in this process and not yet waited for (:func:`wait_pending`).
-_pending: list[Precompile] = []
 
 
 def precompile(tasks: tuple[str, ...] = TASKS, workers: int | None = None) -> Precompile:
@@ -160,14 +141,13 @@ def precompile(tasks: tuple[str, ...] = TASKS, workers: int | None = None) -> Pr
                                 stdin=subprocess.DEVNULL)
         workers_started.append((share, proc, out, err))
     job = Precompile(workers_started)
-    _pending.append(job)
+    jobs.add(job)
     return job
 
 
 def wait_pending() -> None:
     """Wait for every :func:`precompile` job this process started and has not waited for."""
-    while _pending:
-        _pending[-1].wait()
+    jobs.wait_pending()
 
 
 def _main(argv: list[str]) -> int:

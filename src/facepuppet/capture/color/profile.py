@@ -4,7 +4,7 @@ A profile holds the colour-weight network of §3.1 (its layer arrays; rebuilt wi
 function G, the performer's skin colour, and the performer's mean feature layout in the face frame (curves in
 face units, see :mod:`facepuppet.capture.color.face`) with the blob anchors the tracker aligns the face frame on.
 :func:`default_profile` is a generic adult face with generic weights; it needs no calibration and no
-MediaPipe. :func:`calibrate_profile` learns a performer's profile from labelled frames.
+MediaPipe. :func:`~facepuppet.capture.color.train.train_profile` learns a performer's profile from labelled frames.
 """
 
 from __future__ import annotations
@@ -31,7 +31,6 @@ __all__ = [
     "default_profile",
     "save_profile",
     "load_profile",
-    "calibrate_profile",
 ]
 
 PROFILE_VERSION = 1
@@ -211,40 +210,6 @@ def load_profile(path: str | os.PathLike) -> Profile:
         )
     except KeyError as e:
         raise FacepuppetError(f"{path}: profile file lacks the field {e.args[0]!r}") from e
-
-
-def calibrate_profile(frames, curves, *, base: Profile | None = None, name: str = "performer",
-                      augment: int = 6, seed: int = 0, progress: bool = False, tracker=None) -> Profile:
-    """Learn a performer profile from labelled frames (§3.1).
-
-    Parameters
-    ----------
-    frames : sequence of (H, W, 3) uint8
-        RGB frames of the performer (a short calibration clip).
-    curves : (F, C, 4, 2) float
-        The feature curves of each frame in image pixels (CURVE_NAMES order; NaN rows for unlabelled frames),
-        for example from the MediaPipe backend, or a synthetic performer's ground truth.
-    base : Profile, optional
-        Starting point (default :func:`default_profile`).
-    name : str
-    augment : int
-        Lighting variants per frame for the network's training set.
-    seed : int
-        Seed of the lighting variants.
-    progress : bool
-    tracker : ColorTrackerConfig, optional
-        The options of the colour tracker run over the labelled frames (the eye anchors, the eyelid and shape
-        models learn where it looks); give the ones it will track with.
-
-    Returns
-    -------
-    Profile
-        With the performer's layout and anchors, skin model, lip hue and the trained colour network.
-    """
-    from facepuppet.capture.color import train
-
-    return train.calibrate(frames, curves, base=base or default_profile(), name=name, augment=augment,
-                                seed=seed, progress=progress, options=tracker)
 
 
 def with_layout(profile: Profile, layout: np.ndarray, anchors: np.ndarray) -> Profile:

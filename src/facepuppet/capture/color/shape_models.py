@@ -1,6 +1,6 @@
 """The performer's lips, brows and eyes read from the look of the face crop: linear models learnt with the profile.
 
-The colour tracker's rules (:mod:`~facepuppet.capture.color.outlines`) move each lip and brow curve of the layout by
+The colour tracker's rules (:mod:`~facepuppet.capture.color.rules`) move each lip and brow curve of the layout by
 a few numbers read off its blob: the mouth's corners and one shift per curve, the brow's height and tilt. The
 blob's edges follow the light and the head's turn as much as the expression, and a curve's shape beyond those
 few numbers is the layout's. On the digital performer the lips' points wandered from the true ones nearly as

@@ -1,4 +1,4 @@
-"""Learning a performer profile from labelled frames (§3.1), (:func:`calibrate`).
+"""Training a performer profile of the colour tracker from labelled frames (§3.1): :func:`train_profile`.
 
 Labels are feature curves in image pixels (CURVE_NAMES order), for example from the MediaPipe backend. From
 them: the face frame of each frame (eye centres = midpoints of the eye corners), the performer's mean layout in
@@ -16,12 +16,17 @@ from dataclasses import replace
 import cv2
 import numpy as np
 
+from facepuppet.capture.color.config import ColorTrackerConfig
 from facepuppet.capture.color.face import CROP_EXTENT, FaceFrame, SkinModel
 from facepuppet.capture.color.net import SUBAREAS, ColourNet, separating_weights, subarea_means
+from facepuppet.capture.color.profile import Profile, default_profile
 from facepuppet.capture.color.shape_models import FAMILIES, JITTER, fit_shape_model, training_pairs
+from facepuppet.capture.color.tracker import ColorTracker
 from facepuppet.capture.color.transform import LipHue, channels, lip_hue_table
 from facepuppet.capture.curves import CURVE_NAMES, bezier_points
 from facepuppet.errors import FacepuppetError
+
+__all__ = ["train_profile", "label_frame", "to_face_units", "relight", "feature_and_skin_masks"]
 
 log = logging.getLogger(__name__)
 
@@ -127,13 +132,38 @@ def _mouth_reach(layouts: np.ndarray, layout: np.ndarray, least: float) -> float
     return float(np.clip(offsets.max() + 0.03, least, 0.35))
 
 
-def calibrate(frames, curves, *, base, name: str, augment: int, seed: int, progress: bool, options=None):
-    """See :func:`facepuppet.capture.color.profile.calibrate_profile`."""
+def train_profile(frames, curves, *, base: Profile | None = None, name: str = "performer", augment: int = 6,
+                  seed: int = 0, progress: bool = False, config: ColorTrackerConfig | None = None) -> Profile:
+    """Learn a performer profile from labelled frames (§3.1).
+
+    Parameters
+    ----------
+    frames : sequence of (H, W, 3) uint8
+        RGB frames of the performer (a short calibration clip).
+    curves : (F, C, 4, 2) float
+        The feature curves of each frame in image pixels (CURVE_NAMES order; NaN rows for unlabelled frames),
+        for example from the MediaPipe backend, or a synthetic performer's ground truth.
+    base : Profile, optional
+        Starting point (default :func:`~facepuppet.capture.color.profile.default_profile`).
+    name : str
+    augment : int
+        Lighting variants per frame for the network's training set.
+    seed : int
+        Seed of the lighting variants.
+    progress : bool
+    config : ColorTrackerConfig, optional
+        The options of the colour tracker run over the labelled frames (the eye anchors, the eyelid and shape
+        models learn where it looks); give the ones it will track with.
+
+    Returns
+    -------
+    Profile
+        With the performer's layout and anchors, skin model, lip hue and the trained colour network.
+    """
     from tqdm import tqdm
 
-    from facepuppet.capture.color.tracker import ColorTracker, ColorTrackerConfig
-
-    options = options if options is not None else ColorTrackerConfig()
+    base = base or default_profile()
+    options = config if config is not None else ColorTrackerConfig()
     curves = np.asarray(curves, dtype=float)
     if curves.ndim != 4 or curves.shape[1:] != (len(CURVE_NAMES), 4, 2):
         raise ValueError(f"curves must be (F, {len(CURVE_NAMES)}, 4, 2), got shape {curves.shape}")
@@ -193,17 +223,18 @@ def calibrate(frames, curves, *, base, name: str, augment: int, seed: int, progr
         tracker = ColorTracker(replace(profile, anchors=anchors), config=options)
         got = []
         for rgb, fr in crops:
-            crop = _crop(rgb, fr, tracker.config.px)[0]
+            crop = _crop(rgb, fr, tracker.config.measure.px)[0]
             eyes = tracker._eye_centres(tracker.intensity(crop))
             if eyes is not None:
-                got.append(eyes / tracker.config.px + CROP_EXTENT[:2])
+                got.append(eyes / tracker.config.measure.px + CROP_EXTENT[:2])
         if not got:
             break
         anchors[:2] = np.median(np.stack(got), axis=0)
     # Where the tracker itself puts the eyes' corners on the labelled frames (the eyelid model's patches are
     # cut there at run time), and the crops and placed layouts the shape models read (the lips' and brows'
     # rules are not needed for either).
-    tracker = ColorTracker(replace(profile, anchors=anchors), config=replace(options, outline_parts=("eyes",)))
+    eyes_only = replace(options, measure=replace(options.measure, outline_parts=("eyes",)))
+    tracker = ColorTracker(replace(profile, anchors=anchors), config=eyes_only)
     tracked = []
     pairs: dict[str, tuple[list, list]] = {family: ([], []) for family in FAMILIES}
     for i, (rgb, fr) in enumerate(crops):

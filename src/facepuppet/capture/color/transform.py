@@ -16,7 +16,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import cv2
+import numba as nb
 import numpy as np
+
+from facepuppet._util.jit import INNER, KERNEL
+from facepuppet.capture.color.rules.kernels import median_of_boxes, top_of_boxes
 
 __all__ = [
     "LipHue",
@@ -25,10 +29,33 @@ __all__ = [
     "transform",
     "contrast",
     "DEFAULT_WEIGHTS",
+    "SPECK",
+    "CONTRAST_LOW",
+    "CONTRAST_HIGH",
+    "SKIN_Y_MIN",
+    "SKIN_Y_MAX",
+    "hsv_u8",
+    "ycrcb_u8",
+    "skin_fraction",
+    "feature_intensity",
 ]
 
 #: Generic weights (w1, w2, w3, w4) of Eq. 1: magenta, black, value, lip hue.
 DEFAULT_WEIGHTS = np.array([0.9, 0.2, -0.8, 0.5], dtype=np.float32)
+
+# Tuning constants of the contrast C in feature_intensity
+#                      unit        what it does
+CONTRAST_LOW = 0.15    # fraction    C starts rising this far from the skin level to the feature level
+CONTRAST_HIGH = 0.75   # fraction    C reaches 1 this far from the skin level to the feature level
+#: The feature level is at most this many times the brightest 3 x 3 mean's height above the skin level: a
+#: brighter pixel stands alone, a speck of noise (a light stretched to undo a colour cast turns a camera's block
+#: noise into specks).
+SPECK = 2.0
+#: Span of the smooth step, as a fraction of the skin-to-feature distance.
+CONTRAST_SPAN = CONTRAST_HIGH - CONTRAST_LOW
+# Skin test (skin_fraction, as face.skin_probability): only pixels of luma Y in SKIN_Y_MIN..SKIN_Y_MAX (0..255)
+SKIN_Y_MIN = 35
+SKIN_Y_MAX = 250
 
 
 @dataclass(frozen=True)
@@ -151,3 +178,116 @@ def contrast(intensity: np.ndarray, low: float, high: float, out: np.ndarray | N
     x += np.float32(3.0)
     x *= y
     return x
+
+
+# OpenCV's fixed-point reciprocals for 8-bit RGB -> HSV (12 fractional bits).
+_S_DIV = np.r_[0, np.round(255.0 * 4096.0 / np.arange(1, 256))].astype(np.int64)
+_H_DIV = np.r_[0, np.round(180.0 * 4096.0 / (6.0 * np.arange(1, 256)))].astype(np.int64)
+
+
+@nb.njit(**INNER)
+def hsv_u8(r: int, g: int, b: int):
+    """OpenCV's 8-bit RGB -> HSV (hue code 0..179, saturation and value 0..255), same integer arithmetic."""
+    v = max(r, g, b)
+    diff = v - min(r, g, b)
+    s = (diff * _S_DIV[v] + 2048) >> 12
+    if diff == 0:
+        return 0, s, v
+    if v == r:
+        h = g - b
+    elif v == g:
+        h = b - r + 2 * diff
+    else:
+        h = r - g + 4 * diff
+    h = (h * _H_DIV[diff] + 2048) >> 12
+    if h < 0:
+        h += 180
+    return h, s, v
+
+
+@nb.njit(**INNER)
+def ycrcb_u8(r: int, g: int, b: int):
+    """OpenCV's 8-bit RGB -> YCrCb (same integer arithmetic): (Y, Cr, Cb)."""
+    y = (r * 4899 + g * 9617 + b * 1868 + 8192) >> 14
+    cr = min(max(((r - y) * 11682 + (128 << 14) + 8192) >> 14, 0), 255)
+    cb = min(max(((b - y) * 9241 + (128 << 14) + 8192) >> 14, 0), 255)
+    return y, cr, cb
+
+
+@nb.njit(**KERNEL)
+def skin_fraction(crop: np.ndarray, boxes: np.ndarray, table: np.ndarray) -> float:
+    """Fraction of the pixels of the rectangles whose (Cr, Cb) the skin table accepts (Y in
+    :data:`SKIN_Y_MIN` .. :data:`SKIN_Y_MAX`), as
+    :func:`~facepuppet.capture.color.face.skin_probability`."""
+    n = 0
+    hit = 0
+    for k in range(len(boxes)):
+        x0, y0, x1, y1 = boxes[k]
+        for yy in range(y0, y1):
+            for xx in range(x0, x1):
+                y, cr, cb = ycrcb_u8(np.int64(crop[yy, xx, 0]), np.int64(crop[yy, xx, 1]), np.int64(crop[yy, xx, 2]))
+                n += 1
+                if SKIN_Y_MIN <= y <= SKIN_Y_MAX and table[cr, cb]:
+                    hit += 1
+    return hit / n if n else 0.0
+
+
+@nb.njit(**KERNEL)
+def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarray, min_saturation: float,
+                      skin_boxes: np.ndarray, feature_boxes: np.ndarray):
+    """Eq. 1 and the contrast C over a face crop in one pass (as :func:`transform` and :func:`contrast`).
+
+    I = w1 (V - G) / V + (w3 - w2) V + w2 + w4 G(H) with 8-bit V and G as in
+    :func:`transform`; then C = smoothstep between the skin level (median of I
+    over ``skin_boxes``) + :data:`CONTRAST_LOW` and + :data:`CONTRAST_HIGH` of the way to the brightest I in
+    ``feature_boxes``
+    (a lone bright pixel is taken down to :data:`SPECK` times the brightest 3 x 3 mean's level).
+
+    Parameters
+    ----------
+    crop : (H, W, 3) uint8 RGB
+    weights : (4,) float
+    hue_table : (256,) float32
+    min_saturation : float
+        In [0, 1]; less saturated pixels get G = 0.
+    skin_boxes, feature_boxes : (N, 4) int64
+        Rectangles (x0, y0, x1, y1).
+
+    Returns
+    -------
+    raw : (H, W) float32
+        I of Eq. 1.
+    C : (H, W) float32
+        The contrast-enhanced intensity in [0, 1].
+    value : (H, W) uint8
+        HSV value V.
+    """
+    h, w = crop.shape[:2]
+    w1, w2, w3, w4 = weights[0], weights[1], weights[2], weights[3]
+    kv = (w3 - w2) / 255.0
+    s_min = np.uint8(min_saturation * 255.0)
+    raw = np.empty((h, w), np.float32)
+    value = np.empty((h, w), np.uint8)
+    use_hue = w4 != 0.0
+    for y in range(h):
+        for x in range(w):
+            r, g, b = np.int64(crop[y, x, 0]), np.int64(crop[y, x, 1]), np.int64(crop[y, x, 2])
+            v = max(r, g, b)
+            i = w1 * (v - g) / max(v, 1) + kv * v + w2
+            if use_hue:
+                hue, s, _ = hsv_u8(r, g, b)
+                if s >= s_min:
+                    i += w4 * hue_table[hue]
+            raw[y, x] = i
+            value[y, x] = v
+    low = median_of_boxes(raw, skin_boxes)
+    top, peak = top_of_boxes(raw, feature_boxes, low)
+    feat = low + min(top - low, SPECK * (peak - low))
+    lo = low + CONTRAST_LOW * (feat - low)
+    inv = 1.0 / max(CONTRAST_SPAN * (feat - low), 1e-6)
+    C = np.empty((h, w), np.float32)
+    for y in range(h):
+        for x in range(w):
+            t = min(max((raw[y, x] - lo) * inv, 0.0), 1.0)
+            C[y, x] = t * t * (3.0 - 2.0 * t)
+    return raw, C, value
