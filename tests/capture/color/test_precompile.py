@@ -18,7 +18,8 @@ _TRACK = textwrap.dedent("""
     import numba
     import numpy as np
     import facepuppet
-    from facepuppet.capture.color.tracker import ColorTracker, ColorTrackerConfig
+    from facepuppet.capture.color.config import ColorTrackerConfig, LandmarkConfig
+    from facepuppet.capture.color.tracker import ColorTracker
     from facepuppet.capture.color.lids import PATCH_SIZE
     from facepuppet.capture.color.profile import Profile
     from facepuppet.capture.color.shape_models import FAMILIES, PATCH_SIZE as SHAPE_PATCH
@@ -30,7 +31,7 @@ _TRACK = textwrap.dedent("""
     shapes = {f: {"coef": np.zeros((8 * len(i), n_in)), "intercept": np.linspace(0.1, 0.9, 8 * len(i))}
               for f, i in FAMILIES.items()}
     lids = {"coef": np.zeros((2, PATCH_SIZE[0] * PATCH_SIZE[1])), "intercept": np.zeros(2)}
-    options = ColorTrackerConfig(landmark_acquire=False)
+    options = ColorTrackerConfig(landmarks=LandmarkConfig(enabled=False))
     for profile in (None, Profile(shapes=shapes, lids=lids)):
         tracker = ColorTracker(profile, config=options)
         assert sum(tracker.track(f, 33 * k).valid for k, f in enumerate(frames[:30])) > 20

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from facepuppet.capture.color import train as cal
+from facepuppet.capture.color.train import train_profile
 from facepuppet.capture.color.net import (
     N_INPUTS,
     WEIGHT_SCALE,
@@ -21,12 +22,12 @@ from facepuppet.capture.color.profile import (
     GENERIC_MOUTH_REACH,
     PROFILE_VERSION,
     Profile,
-    calibrate_profile,
     default_profile,
     load_profile,
     save_profile,
 )
 from facepuppet.capture.color.transform import channels, lip_hue_table
+from facepuppet.capture.curves import CURVE_NAMES
 from facepuppet.errors import FacepuppetError
 
 
@@ -78,13 +79,13 @@ def test_mouth_reach_round_trip_and_older_files(tmp_path):
 def test_mouth_reach_learned_from_the_corners_offsets():
     """Corners 0.16 face units in from the mean in one frame: reach 0.16 + 0.03; never below the generic one."""
     layouts = np.repeat(GENERIC_LAYOUT[None], 5, axis=0)
-    c = cal._IDX["lip_upper_outer"]
+    c = CURVE_NAMES.index("lip_upper_outer")
     layouts[2, c, 0, 0] += 0.16
     layouts[2, c, 3, 0] -= 0.16
-    assert cal._mouth_reach(layouts, GENERIC_LAYOUT, GENERIC_MOUTH_REACH) == pytest.approx(0.19)
-    assert cal._mouth_reach(layouts[:2], GENERIC_LAYOUT, GENERIC_MOUTH_REACH) == GENERIC_MOUTH_REACH
+    assert cal.mouth_reach_of(layouts, GENERIC_LAYOUT, GENERIC_MOUTH_REACH) == pytest.approx(0.19)
+    assert cal.mouth_reach_of(layouts[:2], GENERIC_LAYOUT, GENERIC_MOUTH_REACH) == GENERIC_MOUTH_REACH
     layouts[2, c, 0, 1] += 1.0
-    assert cal._mouth_reach(layouts, GENERIC_LAYOUT, GENERIC_MOUTH_REACH) == pytest.approx(0.35)
+    assert cal.mouth_reach_of(layouts, GENERIC_LAYOUT, GENERIC_MOUTH_REACH) == pytest.approx(0.35)
 
 
 def test_corrupt_truncated_future_and_incomplete_files(tmp_path):
@@ -151,11 +152,11 @@ def test_subarea_means_of_a_uniform_crop():
 
 def test_calibration_rejects_mismatched_input():
     with pytest.raises(ValueError, match="curves"):
-        calibrate_profile([np.zeros((8, 8, 3), np.uint8)], np.zeros((1, 3, 4, 2)))
+        train_profile([np.zeros((8, 8, 3), np.uint8)], np.zeros((1, 3, 4, 2)))
     with pytest.raises(ValueError, match="same length"):
-        calibrate_profile([], np.zeros((1, 12, 4, 2)))
+        train_profile([], np.zeros((1, 12, 4, 2)))
     with pytest.raises(FacepuppetError, match="no labelled frame"):
-        calibrate_profile([np.zeros((8, 8, 3), np.uint8)], np.full((1, 12, 4, 2), np.nan))
+        train_profile([np.zeros((8, 8, 3), np.uint8)], np.full((1, 12, 4, 2), np.nan))
 
 
 @pytest.fixture(scope="module")
@@ -184,7 +185,7 @@ def _separation(frames, curves, idx, light, weights_of):
     for i in idx:
         rgb = cal.relight(frames[i], *light)
         fr = cal.label_frame(curves[i])
-        crop, A, size = cal._crop(rgb, fr)
+        crop, A, size = cal.face_crop(rgb, fr)
         feat, skin = cal.feature_and_skin_masks(curves[i] @ A[:, :2].T + A[:, 2], size)
         ch = channels(crop, weights_of.table)
         image = np.tensordot(weights_of(crop), ch, 1)
@@ -195,7 +196,7 @@ def _separation(frames, curves, idx, light, weights_of):
 def test_reestimated_weights_keep_features_separable_when_the_light_changes(labelled_clip):
     frames, curves = labelled_clip
     train, test = list(range(0, 60, 3)), list(range(100, 200, 10))
-    prof = calibrate_profile([frames[i] for i in train], np.stack([curves[i] for i in train]), augment=6)
+    prof = train_profile([frames[i] for i in train], np.stack([curves[i] for i in train]), augment=6)
     net = ColourNet.from_arrays(prof.net)
     table = lip_hue_table(prof.lip_hue)
 

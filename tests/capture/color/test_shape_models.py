@@ -143,7 +143,8 @@ def test_profile_round_trip_and_damaged_models(tmp_path, rng):
 def test_the_tracker_reads_the_lips_with_the_profiles_model():
     """A lips model that always reads the same curves (no weights, an intercept): the tracker's lips are those
     curves in the box of the layout it placed, on every frame, whatever the rules would have found."""
-    from facepuppet.capture.color.tracker import ColorTracker, ColorTrackerConfig
+    from facepuppet.capture.color.config import ColorTrackerConfig, FilterConfig
+    from facepuppet.capture.color.tracker import ColorTracker
     from facepuppet.demo.performer import render_performer
     from facepuppet.demo.script import calibration_script
 
@@ -151,8 +152,8 @@ def test_the_tracker_reads_the_lips_with_the_profiles_model():
     frames, _ = render_performer(script, size=(256, 256))
     fixed = np.linspace(0.1, 0.9, 32)
     tracker = ColorTracker(Profile(shapes={"lips": _constant_model("lips", fixed)}),
-                           config=ColorTrackerConfig(smoothing=False))
-    plain = ColorTracker(Profile(), config=ColorTrackerConfig(smoothing=False))
+                           config=ColorTrackerConfig(filters=FilterConfig(enabled=False)))
+    plain = ColorTracker(Profile(), config=ColorTrackerConfig(filters=FilterConfig(enabled=False)))
     differs = 0
     for k in range(0, len(frames), 7):
         got = tracker.track(frames[k], 33 * k)
@@ -185,26 +186,27 @@ def test_a_profile_with_shape_models_keeps_the_face_frame_filtered(monkeypatch):
     resets.clear()
     for k in range(2, 14):
         assert tracker.track(frames[k], 33 * k).valid
-    assert sum(r is tracker._frame_filter for r in resets) <= 1, len(resets)     # 12 with the misplaced reset
+    assert sum(r is tracker.smoother.frame for r in resets) <= 1, len(resets)     # 12 with the misplaced reset
 
 
 def test_the_rules_a_profiles_models_replace_are_not_run():
     """With models of every family the tracker runs none of §3.2's rules (no snakes, no eyelid model); its
     curves are those it gives when every rule runs, since the models replace them."""
     from facepuppet.capture.color.rules import OUTLINE_PARTS
-    from facepuppet.capture.color.tracker import ColorTracker, ColorTrackerConfig
+    from facepuppet.capture.color.config import ColorTrackerConfig, MeasureConfig
+    from facepuppet.capture.color.tracker import ColorTracker
     from facepuppet.demo.performer import render_performer
     from facepuppet.demo.script import calibration_script
 
     frames, _ = render_performer(calibration_script(hold=0.3, transition=0.1, head_motion=0.0), size=(256, 256))
     shapes = {f: _constant_model(f, np.linspace(0.1, 0.9, 8 * len(idx))) for f, idx in FAMILIES.items()}
     lips_only = ColorTracker(Profile(shapes={"lips": shapes["lips"]}))
-    assert lips_only._parts == ("eyes", "brows")
+    assert lips_only.parts == ("eyes", "brows")
     no_eyes = ColorTracker(Profile(shapes={f: m for f, m in shapes.items() if not f.startswith("eye_")}))
-    assert no_eyes._parts == ("eyes",)
+    assert no_eyes.parts == ("eyes",)
     lids = {"coef": np.zeros((2, 128)), "intercept": np.full(2, 0.3)}
     fast = ColorTracker(Profile(shapes=shapes, lids=lids))
-    assert fast._parts == ()
+    assert fast.parts == ()
     every = ColorTracker(Profile(shapes=shapes, lids=lids))
     every._parts = OUTLINE_PARTS
     for k in range(0, 40, 3):
@@ -212,4 +214,4 @@ def test_the_rules_a_profiles_models_replace_are_not_run():
         assert a.valid and b.valid
         np.testing.assert_array_equal(a.curves, b.curves)
     with pytest.raises(ValueError, match=r"outline_parts: unknown \['nose'\]"):
-        ColorTrackerConfig(outline_parts=("eyes", "nose"))
+        ColorTrackerConfig(measure=MeasureConfig(outline_parts=("eyes", "nose")))

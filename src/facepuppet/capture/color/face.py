@@ -26,6 +26,7 @@ __all__ = [
     "similarity_of_pairs",
     "same_frame",
     "then_affine",
+    "box_in_crop",
 ]
 
 #: Extent of the face crop in face units: x0, y0, x1, y1 (brows above, chin below).
@@ -316,3 +317,11 @@ def similarity_of_pairs(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
     a, b = (ux * vx + uy * vy) / den, (ux * vy - uy * vx) / den
     mx, my = 0.5 * (sx0 + sx1), 0.5 * (sy0 + sy1)
     return np.array([[a, -b, 0.5 * (dx0 + dx1) - (a * mx - b * my)], [b, a, 0.5 * (dy0 + dy1) - (b * mx + a * my)]])
+
+
+def box_in_crop(box, px: float) -> tuple[int, int, int, int]:
+    """A rectangle (x0, y0, x1, y1) in face units as whole crop pixels of a crop of ``px`` pixels per face unit
+    (:data:`CROP_EXTENT`'s corner at pixel 0)."""
+    x0, y0 = CROP_EXTENT[0], CROP_EXTENT[1]
+    return (int(round((box[0] - x0) * px)), int(round((box[1] - y0) * px)),
+            int(round((box[2] - x0) * px)), int(round((box[3] - y0) * px)))

@@ -26,7 +26,8 @@ from facepuppet.capture.color.transform import LipHue, channels, lip_hue_table
 from facepuppet.capture.curves import CURVE_NAMES, bezier_points
 from facepuppet.errors import FacepuppetError
 
-__all__ = ["train_profile", "label_frame", "to_face_units", "relight", "feature_and_skin_masks"]
+__all__ = ["train_profile", "label_frame", "to_face_units", "relight", "feature_and_skin_masks", "face_crop",
+           "mouth_reach_of"]
 
 log = logging.getLogger(__name__)
 
@@ -88,7 +89,8 @@ def feature_and_skin_masks(curves_px: np.ndarray, size: tuple[int, int], px: flo
     return feat.astype(bool), skin & ~grown
 
 
-def _crop(rgb: np.ndarray, frame: FaceFrame, px: float = _PX):
+def face_crop(rgb: np.ndarray, frame: FaceFrame, px: float = _PX):
+    """The upright face crop of ``frame`` in the RGB frame, with its crop matrix (2, 3) and size (w, h)."""
     A = frame.crop_matrix(px)
     size = frame.crop_size(px)
     return cv2.warpAffine(rgb, A, size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE), A, size
@@ -124,7 +126,7 @@ def _lip_hue(crops, curves_px, base: LipHue) -> LipHue:
     return LipHue(centre, float(np.clip(1.5 * spread, 10.0, 30.0)), base.min_saturation)
 
 
-def _mouth_reach(layouts: np.ndarray, layout: np.ndarray, least: float) -> float:
+def mouth_reach_of(layouts: np.ndarray, layout: np.ndarray, least: float) -> float:
     """How far the mouth corners move from the mean layout in the labelled frames (F, C, 4, 2), face units:
     their largest offset on either axis plus a margin of 0.03, at least ``least`` and at most 0.35."""
     c = _IDX["lip_upper_outer"]
@@ -183,7 +185,7 @@ def train_profile(frames, curves, *, base: Profile | None = None, name: str = "p
         if frame.unit < 6:
             continue
         layouts.append(to_face_units(curves[k], frame))
-        crop, A, size = _crop(rgb, frame)
+        crop, A, size = face_crop(rgb, frame)
         cpx = curves[k] @ A[:, :2].T + A[:, 2]
         feat, skin = feature_and_skin_masks(cpx, size)
         if feat.sum() < 10 or skin.sum() < 10:
@@ -196,8 +198,8 @@ def train_profile(frames, curves, *, base: Profile | None = None, name: str = "p
     if not crops:
         raise FacepuppetError("no labelled frame shows a face large enough to calibrate on")
     layout = np.median(np.stack(layouts), axis=0)
-    reach = _mouth_reach(np.stack(layouts), layout, base.mouth_reach)
-    plain = [_crop(rgb, fr)[0] for rgb, fr in crops]
+    reach = mouth_reach_of(np.stack(layouts), layout, base.mouth_reach)
+    plain = [face_crop(rgb, fr)[0] for rgb, fr in crops]
     skin_model = _skin_model(plain, skins)
     lip = _lip_hue(plain, curves_px, base.lip_hue)
     table = lip_hue_table(lip)
@@ -208,7 +210,7 @@ def train_profile(frames, curves, *, base: Profile | None = None, name: str = "p
         if j is not None:
             (g0, g1), (t0, t1), (c0, c1) = _RELIGHT
             rgb = relight(rgb, rng.uniform(g0, g1), rng.uniform(t0, t1), rng.uniform(c0, c1))
-        crop = _crop(rgb, fr)[0]
+        crop = face_crop(rgb, fr)[0]
         ch = channels(crop, table, lip.min_saturation)
         ys.append(separating_weights(ch[:, feats[i]].T, ch[:, skins[i]].T))
         xs.append(subarea_means(crop, _PX))
@@ -223,8 +225,8 @@ def train_profile(frames, curves, *, base: Profile | None = None, name: str = "p
         tracker = ColorTracker(replace(profile, anchors=anchors), config=options)
         got = []
         for rgb, fr in crops:
-            crop = _crop(rgb, fr, tracker.config.measure.px)[0]
-            eyes = tracker._eye_centres(tracker.intensity(crop))
+            crop = face_crop(rgb, fr, tracker.config.measure.px)[0]
+            eyes = tracker.eye_centres(tracker.intensity(crop))
             if eyes is not None:
                 got.append(eyes / tracker.config.measure.px + CROP_EXTENT[:2])
         if not got:

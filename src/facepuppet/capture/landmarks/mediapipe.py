@@ -186,6 +186,7 @@ class MediaPipeTracker:
         self.config = config or MediaPipeConfig()
         self.model_path = resolve_model_path(model_path)
         self._mp, self._BaseOptions, self._vision = _import_mediapipe()
+        self.running_mode = running_mode
         self._video = running_mode == "video"
         self._main = self._create(video=self._video)
         self._searcher = None  # IMAGE-mode landmarker for tiles and crops, made on first need

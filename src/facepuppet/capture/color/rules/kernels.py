@@ -17,7 +17,8 @@ from facepuppet._util.jit import INNER
 from facepuppet.capture.curves import bernstein
 
 __all__ = ["SAMPLES", "BASIS", "MID_WEIGHT", "CENTRAL_WEIGHT", "CENTRAL", "MIN_COLUMNS", "along", "select_kth",
-           "median", "quantile", "interp", "sort_order", "mid_shift", "sample_profile", "line_fit", "top_of_boxes", "median_of_boxes"]
+           "median", "quantile", "interp", "sort_order", "mid_shift", "sample_profile", "line_fit", "top_of_boxes",
+           "median_of_boxes"]
 
 #: Boundary samples per curve, K.
 SAMPLES = 12

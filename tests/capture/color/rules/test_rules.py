@@ -5,18 +5,19 @@ import numpy as np
 import pytest
 
 from facepuppet.capture.color.blobs import close_mask, ellipse_kernel, label8, open_mask
-from facepuppet.capture.color.rules import (
-    OUTLINE_PARTS,
-    _hsv,
-    _interp,
-    _median,
-    _order,
-    _quantile,
-    eye_centres,
+from facepuppet.capture.color.eye_anchors import eye_centres
+from facepuppet.capture.color.profile import GENERIC_MOUTH_REACH
+from facepuppet.capture.color.rules import BLOB_PARAMS, OUTLINE_PARTS, outline_features
+from facepuppet.capture.color.rules.kernels import interp, median, quantile, sort_order
+from facepuppet.capture.color.transform import (
+    DEFAULT_WEIGHTS,
+    LipHue,
+    contrast,
     feature_intensity,
-    outline_features,
+    hsv_u8,
+    lip_hue_table,
+    transform,
 )
-from facepuppet.capture.color.transform import DEFAULT_WEIGHTS, LipHue, contrast, lip_hue_table, transform
 from facepuppet.capture.curves import CURVE_NAMES
 
 
@@ -53,13 +54,13 @@ def test_median_and_quantile_by_selection_equal_the_sorted_forms(dtype):
         for a in (rng.random(n), rng.integers(0, 4, n), rng.integers(0, 256, n)):  # ties and grey levels too
             a = a.astype(dtype)
             d = np.sort(a)
-            assert _median(a) == 0.5 * (d[(n - 1) // 2] + d[n // 2])
-            assert np.isclose(_median(a), np.median(a.astype(np.float64)))
+            assert median(a) == 0.5 * (d[(n - 1) // 2] + d[n // 2])
+            assert np.isclose(median(a), np.median(a.astype(np.float64)))
             for q in (0.0, 0.5, 0.75, 0.97, 1.0):
                 pos = q * (n - 1)
                 i = min(int(pos), max(n - 2, 0))
-                assert _quantile(a, q) == float(d[i]) + (pos - i) * float(d[min(i + 1, n - 1)] - d[i])
-                assert np.isclose(_quantile(a, q), np.quantile(a.astype(np.float64), q))
+                assert quantile(a, q) == float(d[i]) + (pos - i) * float(d[min(i + 1, n - 1)] - d[i])
+                assert np.isclose(quantile(a, q), np.quantile(a.astype(np.float64), q))
 
 
 def test_interp_and_order_equal_numpys():
@@ -69,30 +70,33 @@ def test_interp_and_order_equal_numpys():
         fp = rng.normal(size=n)
         # Inside, outside, and on the sample points themselves.
         x = np.concatenate([rng.uniform(xp[0] - 3, xp[-1] + 3, 50), xp, [xp[0] - 1, xp[-1] + 1]])
-        assert np.array_equal(_interp(x, xp, fp), np.interp(x, xp, fp))
+        assert np.array_equal(interp(x, xp, fp), np.interp(x, xp, fp))
         a = rng.integers(0, 5, n).astype(float) + rng.choice([0.0, 0.5], n)      # ties too
-        assert np.array_equal(_order(a), np.argsort(a, kind="stable"))
+        assert np.array_equal(sort_order(a), np.argsort(a, kind="stable"))
 
 
 def test_outline_parts_not_read_keep_the_layout():
     """Each part moves only its own curves; the parts not asked for keep the layout's."""
     C, raw, value, layout, offset, boxes, params, unit, reach = _scene_inputs()
-    every = outline_features(C, raw, value, layout, offset, boxes, params, unit, reach)
+    every = outline_features(C, raw=raw, value=value, layout=layout, mouth_offset=offset, boxes=boxes,
+                             blob_params=params, unit=unit, mouth_reach=reach)
     for part, curves in (("eyes", _EYE_CURVES), ("brows", _BROW_CURVES), ("mouth", _LIP_CURVES)):
-        got = outline_features(C, raw, value, layout, offset, boxes, params, unit, reach, parts=(part,))
+        got = outline_features(C, raw=raw, value=value, layout=layout, mouth_offset=offset, boxes=boxes,
+                               blob_params=params, unit=unit, mouth_reach=reach, parts=(part,))
         mine = np.isin(np.arange(len(layout)), curves)
         np.testing.assert_array_equal(got[mine], every[mine])
         np.testing.assert_array_equal(got[~mine], layout[~mine])
         assert not np.array_equal(got[mine], layout[mine]), part               # the scene moves every part
     assert OUTLINE_PARTS == ("eyes", "brows", "mouth")
     with pytest.raises(ValueError, match=r"unknown outline parts \['nose'\]"):
-        outline_features(C, raw, value, layout, offset, boxes, params, unit, reach, parts=("eyes", "nose"))
+        outline_features(C, raw=raw, value=value, layout=layout, mouth_offset=offset, boxes=boxes,
+                         blob_params=params, unit=unit, mouth_reach=reach, parts=("eyes", "nose"))
 
 
 def test_hsv_is_opencvs_8bit_conversion():
     rgb = np.random.default_rng(0).integers(0, 256, (5000, 3)).astype(np.uint8)
     ref = cv2.cvtColor(rgb[None], cv2.COLOR_RGB2HSV)[0]
-    ours = np.array([_hsv(int(r), int(g), int(b)) for r, g, b in rgb])
+    ours = np.array([hsv_u8(int(r), int(g), int(b)) for r, g, b in rgb])
     assert np.array_equal(ours, ref)
 
 
@@ -144,12 +148,12 @@ def test_eye_centres_find_two_bright_spots():
 
 def test_ycrcb_and_skin_fraction_match_opencv_and_the_skin_model():
     from facepuppet.capture.color.face import SkinModel, skin_probability
-    from facepuppet.capture.color.rules import _cr_cb, skin_fraction
+    from facepuppet.capture.color.transform import skin_fraction, ycrcb_u8
 
     rng = np.random.default_rng(4)
     rgb = rng.integers(0, 256, (5000, 3)).astype(np.uint8)
     ref = cv2.cvtColor(rgb[None], cv2.COLOR_RGB2YCrCb)[0]
-    assert np.array_equal(np.array([_cr_cb(int(r), int(g), int(b)) for r, g, b in rgb]), ref)
+    assert np.array_equal(np.array([ycrcb_u8(int(r), int(g), int(b)) for r, g, b in rgb]), ref)
     crop = rng.integers(60, 230, (50, 60, 3)).astype(np.uint8)
     boxes = np.array([[0, 0, 20, 20], [30, 10, 50, 30]], dtype=np.int64)
     model = SkinModel()
@@ -180,21 +184,20 @@ def test_move_boxes_rounds_shifts_and_clips_to_the_crop():
 
 
 def test_two_point_similarity_is_the_least_squares_one():
-    from facepuppet.capture.color.face import similarity_from_points
-    from facepuppet.capture.color.tracker import _similarity_of_pairs
+    from facepuppet.capture.color.face import similarity_from_points, similarity_of_pairs
 
     src = np.array([[10.0, 20.0], [40.0, 24.0]])
     dst = np.array([[13.0, 18.0], [44.0, 29.0]])
-    assert np.allclose(_similarity_of_pairs(src, dst), similarity_from_points(src, dst))
+    assert np.allclose(similarity_of_pairs(src, dst), similarity_from_points(src, dst))
 
 
 def _scene():
     """A blank face crop as the generic tracker sees it: layout, rectangles and blob options in crop pixels."""
-    from facepuppet.capture.color.tracker import _BLOB_PARAMS, ColorTracker
+    from facepuppet.capture.color.tracker import ColorTracker
 
     t = ColorTracker()
-    w, h = t._size
-    return t._layout_px.copy(), t._box_table.copy(), _BLOB_PARAMS, (h, w), t.config.px
+    w, h = t.crop_size
+    return t.layout_in_crop, t.feature_boxes, BLOB_PARAMS, (h, w), t.config.measure.px
 
 
 _EYE_CURVES = [CURVE_NAMES.index(n) for n in CURVE_NAMES if n.startswith("eye_")]
@@ -229,7 +232,7 @@ def _scene_inputs():
 def test_brow_curve_tilts_with_a_slanted_brow():
     """A brow band drawn slanting down to the outside: the brow curve's ends follow the band's slant (the
     layout's ends are level); a level band leaves the curve level."""
-    from facepuppet.capture.color.rules import BOX_NAMES, outline_features
+    from facepuppet.capture.color.rules import BOX_NAMES
     from facepuppet.capture.curves import CURVE_NAMES
 
     layout, boxes, params, (h, w), px = _scene()
@@ -241,7 +244,8 @@ def test_brow_curve_tilts_with_a_slanted_brow():
         ya = 0.5 * (y0 + y1) - 0.5 * slope * (xb - xa)
         cv2.line(raw, (xa, int(round(ya))), (xb, int(round(ya + slope * (xb - xa)))), 1.0, thickness=5)
         C = np.zeros((h, w), np.float32)
-        out = outline_features(C, raw, np.zeros((h, w), np.uint8), layout, np.zeros(2), boxes, params, px)
+        out = outline_features(C, raw=raw, value=np.zeros((h, w), np.uint8), layout=layout, boxes=boxes,
+                               blob_params=params, unit=px, mouth_reach=GENERIC_MOUTH_REACH)
         rise = (out[c, 3, 1] - out[c, 0, 1]) - (layout[c, 3, 1] - layout[c, 0, 1])
         run = out[c, 3, 0] - out[c, 0, 0]
         # The excess over the 0.1 tilt floor is followed (one pixel of rounding in the drawn band).
@@ -251,7 +255,6 @@ def test_brow_curve_tilts_with_a_slanted_brow():
 def test_lower_outer_lip_keeps_the_layouts_thickness():
     """A mouth blob whose lower lip is pale (the blob ends little below the crease): the lower outer lip stays
     the layout's lip thickness below the lower inner one instead of on the blob's bottom."""
-    from facepuppet.capture.color.rules import outline_features
     from facepuppet.capture.curves import CURVE_NAMES
 
     layout, boxes, params, (h, w), px = _scene()
@@ -263,7 +266,8 @@ def test_lower_outer_lip_keeps_the_layouts_thickness():
     cv2.rectangle(C, (xl, top), (xr, crease + 2), 1.0, -1)             # upper lip and a sliver of the lower
     value = np.full((h, w), 200, np.uint8)
     value[crease, xl:xr] = 60                                          # the crease between the lips
-    out = outline_features(C, np.zeros((h, w), np.float32), value, layout, np.zeros(2), boxes, params, px)
+    out = outline_features(C, raw=np.zeros((h, w), np.float32), value=value, layout=layout, boxes=boxes,
+                           blob_params=params, unit=px, mouth_reach=GENERIC_MOUTH_REACH)
     for j in (1, 2):
         assert out[lo, j, 1] - out[li, j, 1] >= layout[lo, j, 1] - layout[li, j, 1] - 1e-9
     # Not the blob's bottom (which is only a few pixels below the crease).
@@ -271,7 +275,7 @@ def test_lower_outer_lip_keeps_the_layouts_thickness():
 
 
 def test_closed_columns_is_opencvs_vertical_closing_and_median_level_numpys():
-    from facepuppet.capture.color.rules import _closed_columns, _median_level
+    from facepuppet.capture.color.rules.brows import closed_columns, median_level
 
     rng = np.random.default_rng(6)
     for _ in range(100):
@@ -280,9 +284,9 @@ def test_closed_columns_is_opencvs_vertical_closing_and_median_level_numpys():
         ref = cv2.morphologyEx(value, cv2.MORPH_CLOSE, np.ones((3, 1), np.uint8))
         x0, y0 = rng.integers(0, w), rng.integers(0, h)
         x1, y1 = rng.integers(x0 + 1, w + 1), rng.integers(y0 + 1, h + 1)
-        assert np.array_equal(_closed_columns(value, x0, x1, y0, y1), ref[y0:y1, x0:x1])
+        assert np.array_equal(closed_columns(value, x0, x1, y0, y1), ref[y0:y1, x0:x1])
         block = rng.integers(0, 256, rng.integers(1, 9, 2)).astype(float)
-        assert _median_level(block) == np.median(block)
+        assert median_level(block) == np.median(block)
 
 
 def _brow_behind_glasses(px, brow_top, ends):
@@ -305,9 +309,9 @@ def _brow_behind_glasses(px, brow_top, ends):
 
 def test_brow_curve_on_a_faint_brow_above_a_glasses_rim_and_out_to_its_ends():
     """A faint brow band with a glasses' rim below it that holds the blob: the brow curve goes onto the band's
-    upper edge (``_BROW_DEPTH`` below it), not onto the rim; a band wider than the layout's brow (a turned head's
+    upper edge (``BROW_DEPTH`` below it), not onto the rim; a band wider than the layout's brow (a turned head's
     near side) stretches the curve's ends out to the band's; a band no wider leaves the layout's ends."""
-    from facepuppet.capture.color.rules import _BROW_DEPTH, outline_features
+    from facepuppet.capture.color.rules.brows import BROW_DEPTH
     from facepuppet.capture.curves import CURVE_NAMES, bezier_points
 
     layout, boxes, params, (h, w), px = _scene()
@@ -320,10 +324,12 @@ def test_brow_curve_on_a_faint_brow_above_a_glasses_rim_and_out_to_its_ends():
         ends = (int(round(lo)) - extra, int(round(hi)) + extra)
         raw, value = _brow_behind_glasses(px, brow_top, ends)
         C = np.zeros((h, w), np.float32)
-        out = outline_features(C, raw, value, layout, np.zeros(2), boxes, params, px)
+        out = outline_features(C, raw=raw, value=value, layout=layout, boxes=boxes, blob_params=params, unit=px,
+                               mouth_reach=GENERIC_MOUTH_REACH)
         # Without the brow band the rim holds the curve (the blob's top): the case the edge search mends.
-        plain = outline_features(C, raw, np.full((h, w), 220, np.uint8), layout, np.zeros(2), boxes, params, px)
-        for curve, depth in ((plain, 8.0), (out, _BROW_DEPTH * px)):
+        plain = outline_features(C, raw=raw, value=np.full((h, w), 220, np.uint8), layout=layout, boxes=boxes,
+                                 blob_params=params, unit=px, mouth_reach=GENERIC_MOUTH_REACH)
+        for curve, depth in ((plain, 8.0), (out, BROW_DEPTH * px)):
             p = bezier_points(curve[c], 32)
             off = p[:, 1] - brow_top[np.clip(p[:, 0].astype(int), 0, w - 1)]
             assert abs(np.median(off) - depth) < 1.0, (extra, np.median(off), depth)
