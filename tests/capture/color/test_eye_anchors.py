@@ -69,7 +69,8 @@ def test_calibration_puts_the_layout_on_mediapipes_eyes(assets, face_landmarker)
     errors = {}
     for name, model, gain in (("calibrated", str(face_landmarker), 1.0), ("off", str(face_landmarker), 0.0),
                               ("no model", "/nonexistent/face_landmarker.task", 1.0)):
-        tracker = ColorTracker(config=ColorTrackerConfig(landmarks=LandmarkConfig(model=model, anchor_calibration=gain)))
+        config = ColorTrackerConfig(landmarks=LandmarkConfig(model=model, anchor_calibration=gain))
+        tracker = ColorTracker(config=config)
         generic = tracker.anchors_px
         f = tracker.track(rgb, 0)
         assert f.valid

@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 
 from facepuppet.capture.color import train as cal
-from facepuppet.capture.color.train import train_profile
 from facepuppet.capture.color.net import (
     N_INPUTS,
     WEIGHT_SCALE,
@@ -26,6 +25,7 @@ from facepuppet.capture.color.profile import (
     load_profile,
     save_profile,
 )
+from facepuppet.capture.color.train import train_profile
 from facepuppet.capture.color.transform import channels, lip_hue_table
 from facepuppet.capture.curves import CURVE_NAMES
 from facepuppet.errors import FacepuppetError

@@ -192,8 +192,8 @@ def test_a_profile_with_shape_models_keeps_the_face_frame_filtered(monkeypatch):
 def test_the_rules_a_profiles_models_replace_are_not_run():
     """With models of every family the tracker runs none of §3.2's rules (no snakes, no eyelid model); its
     curves are those it gives when every rule runs, since the models replace them."""
-    from facepuppet.capture.color.rules import OUTLINE_PARTS
     from facepuppet.capture.color.config import ColorTrackerConfig, MeasureConfig
+    from facepuppet.capture.color.rules import OUTLINE_PARTS
     from facepuppet.capture.color.tracker import ColorTracker
     from facepuppet.demo.performer import render_performer
     from facepuppet.demo.script import calibration_script

@@ -17,6 +17,8 @@ import numpy as np
 __all__ = [
     "SkinModel",
     "FaceFrame",
+    "SKIN_Y_MIN",
+    "SKIN_Y_MAX",
     "FEATURE_BOXES",
     "CROP_EXTENT",
     "skin_probability",
@@ -28,6 +30,21 @@ __all__ = [
     "then_affine",
     "box_in_crop",
 ]
+
+# Tuning constants of the skin search (find_face)
+#                              unit            what it does
+SKIN_Y_MIN = 35                # 8-bit luma      darker pixels have unreliable chroma: never skin
+SKIN_Y_MAX = 250               # 8-bit luma      brighter pixels have unreliable chroma: never skin
+SKIN_OPEN = 2                  # pixels          side of the opening that clears specks off the skin mask
+FACE_ASPECT = 1.5              # ratio           tallest skin region kept, times its width (neck and shoulders)
+REGION_PER_EYE_DISTANCE = 2.3  # ratio           skin region's width per eye-centre distance (no eye holes)
+EYE_ROW = 0.33                 # fraction        of the region's height where the eyes lie (no eye holes)
+EYE_HOLE_MIN_AREA = 2          # pixels          smallest hole that may be an eye
+EYE_HOLE_TOP = 0.6             # fraction        of the region's height above which the eye holes lie
+EYE_SPAN = (0.25, 0.65)        # fraction        of the region's width two eye holes lie apart
+EYE_TILT = 0.35                # ratio           most vertical offset of two eye holes, of their distance
+HOLE_SIZE_WEIGHT = 0.3         # score per log   penalty on two holes' size ratio
+HOLE_LOW_WEIGHT = 0.5          # score           bonus of lower pairs (brows lie above the eyes)
 
 #: Extent of the face crop in face units: x0, y0, x1, y1 (brows above, chin below).
 CROP_EXTENT = (-1.3, -0.85, 1.3, 1.95)
@@ -86,7 +103,7 @@ def skin_probability(rgb: np.ndarray, model: SkinModel = SkinModel()) -> np.ndar
     ycc = cv2.cvtColor(rgb, cv2.COLOR_RGB2YCrCb)
     mask = model.table()[ycc[..., 1], ycc[..., 2]]
     # Very dark or very bright pixels have unreliable chroma.
-    mask[(ycc[..., 0] < 35) | (ycc[..., 0] > 250)] = 0
+    mask[(ycc[..., 0] < SKIN_Y_MIN) | (ycc[..., 0] > SKIN_Y_MAX)] = 0
     return mask
 
 
@@ -148,7 +165,7 @@ def find_face(rgb: np.ndarray, model: SkinModel = SkinModel(), *, work_width: in
     small = cv2.resize(sub, (max(8, round((x1 - x0) * f)), max(8, round((y1 - y0) * f))),
                        interpolation=cv2.INTER_AREA)
     mask = skin_probability(small, model)
-    mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((2, 2), np.uint8))
+    mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, np.ones((SKIN_OPEN, SKIN_OPEN), np.uint8))
     n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
     if n < 2:
         return None
@@ -158,11 +175,11 @@ def find_face(rgb: np.ndarray, model: SkinModel = SkinModel(), *, work_width: in
     bx, by, bw, bh = (int(v) for v in stats[k, :4])
     region = (labels == k).astype(np.uint8)
     # Limit the region to a face-shaped box: the neck and shoulders may join it below.
-    bh = min(bh, int(round(1.5 * bw)))
+    bh = min(bh, int(round(FACE_ASPECT * bw)))
     eyes = _eye_holes(region, bx, by, bw, bh)
     if eyes is None:
-        iod = bw / 2.3
-        centre = np.array([bx + bw / 2.0, by + 0.33 * bh])
+        iod = bw / REGION_PER_EYE_DISTANCE
+        centre = np.array([bx + bw / 2.0, by + EYE_ROW * bh])
         right, left = centre - [iod / 2, 0], centre + [iod / 2, 0]
     else:
         right, left = eyes
@@ -183,19 +200,19 @@ def _eye_holes(region: np.ndarray, bx: int, by: int, bw: int, bh: int):
     if n < 3:
         return None
     cand = [(cents[i] + [bx - 1, by - 1], stats[i, cv2.CC_STAT_AREA]) for i in range(1, n)
-            if stats[i, cv2.CC_STAT_AREA] >= 2 and cents[i][1] < 0.6 * bh]
+            if stats[i, cv2.CC_STAT_AREA] >= EYE_HOLE_MIN_AREA and cents[i][1] < EYE_HOLE_TOP * bh]
     best, best_score = None, -np.inf
     for i in range(len(cand)):
         for j in range(i + 1, len(cand)):
             (a, sa), (b, sb) = cand[i], cand[j]
             d = b - a
             dist = abs(d[0])
-            if not (0.25 * bw <= dist <= 0.65 * bw) or abs(d[1]) > 0.35 * dist:
+            if not (EYE_SPAN[0] * bw <= dist <= EYE_SPAN[1] * bw) or abs(d[1]) > EYE_TILT * dist:
                 continue
             mid = (a + b) / 2.0
             # Side by side, centred, similar size; lower pairs are eyes (brows lie above them).
-            score = (-abs(mid[0] - (bx + bw / 2.0)) / bw - abs(d[1]) / dist - abs(np.log(sa / sb)) * 0.3
-                     + 0.5 * (mid[1] - by) / bh)
+            score = (-abs(mid[0] - (bx + bw / 2.0)) / bw - abs(d[1]) / dist - abs(np.log(sa / sb)) * HOLE_SIZE_WEIGHT
+                     + HOLE_LOW_WEIGHT * (mid[1] - by) / bh)
             if score > best_score:
                 best, best_score = (a, b) if a[0] < b[0] else (b, a), score
     return best

@@ -2,7 +2,7 @@
 
 The colour tracker's rules (:mod:`~facepuppet.capture.color.rules`) place the lids on the eye blob's edges. On
 a closing eye the blob does not shrink with the lid: the lid's crease and the lash line stay as dark as the
-open eye (measured on the shared clips, the rules' eye opening correlates with MediaPipe's at 0.3 or below).
+open eye, so the rules' eye opening follows a blink poorly.
 What does change is the eye's appearance: the sclera and iris disappear under skin. So with the performer
 profile (§3.1, trained on frames labelled by the landmark backend) comes a ridge regression from the grey
 patch of each eye, normalised for level and contrast, to where the middle of each lid sits.

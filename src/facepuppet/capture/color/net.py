@@ -43,6 +43,13 @@ WEIGHT_SCALE = 2.4
 
 _LUMA = np.array([0.299, 0.587, 0.114], dtype=np.float32)
 
+# Tuning constants            unit        what it does
+N_HIDDEN = 10                 # units       hidden sigmoid units of the network (§3.1: 11-10-4)
+MIN_VALUE_WEIGHT = 0.05       # fraction    of WEIGHT_SCALE the value weight w3 stays below zero by
+L2_PENALTY = 1e-3             # -           the network's weight decay (scikit-learn's alpha)
+MAX_ITERATIONS = 3000         # steps       most L-BFGS iterations of the training
+MIN_INPUT_STD = 1e-3          # -           floor of an input's standard deviation in the normalisation
+
 
 def _box(box, px, shape):
     h, w = shape[:2]
@@ -93,7 +100,7 @@ def constrain_weights(w: np.ndarray) -> np.ndarray:
     """
     w = np.array(w, dtype=np.float64)
     w[..., [0, 1, 3]] = np.maximum(w[..., [0, 1, 3]], 0.0)
-    w[..., 2] = np.minimum(w[..., 2], -0.05 * WEIGHT_SCALE)
+    w[..., 2] = np.minimum(w[..., 2], -MIN_VALUE_WEIGHT * WEIGHT_SCALE)
     w *= WEIGHT_SCALE / np.abs(w).sum(axis=-1, keepdims=True)
     return w.astype(np.float32)
 
@@ -159,7 +166,7 @@ class ColourNet:
     @classmethod
     def from_arrays(cls, arrays: dict[str, np.ndarray]) -> ColourNet:
         """Rebuild from :meth:`to_arrays`; raises ValueError naming a missing or misshapen array."""
-        shapes = {"w0": (N_INPUTS, 10), "b0": (10,), "w1": (10, 4), "b1": (4,), "x_mean": (N_INPUTS,),
+        shapes = {"w0": (N_INPUTS, N_HIDDEN), "b0": (N_HIDDEN,), "w1": (N_HIDDEN, 4), "b1": (4,), "x_mean": (N_INPUTS,),
                   "x_std": (N_INPUTS,)}
         out = {}
         for k, shape in shapes.items():
@@ -180,8 +187,8 @@ class ColourNet:
         y = np.asarray(y, dtype=float)
         if x.ndim != 2 or x.shape[1] != N_INPUTS or y.shape != (len(x), 4):
             raise ValueError(f"x must be (N, {N_INPUTS}) and y (N, 4), got {x.shape} and {y.shape}")
-        mean, std = x.mean(axis=0), np.maximum(x.std(axis=0), 1e-3)
-        mlp = MLPRegressor(hidden_layer_sizes=(10,), activation="logistic", solver="lbfgs", alpha=1e-3,
-                           max_iter=3000, random_state=seed)
+        mean, std = x.mean(axis=0), np.maximum(x.std(axis=0), MIN_INPUT_STD)
+        mlp = MLPRegressor(hidden_layer_sizes=(N_HIDDEN,), activation="logistic", solver="lbfgs", alpha=L2_PENALTY,
+                           max_iter=MAX_ITERATIONS, random_state=seed)
         mlp.fit((x - mean) / std, y)
         return cls(mlp.coefs_[0], mlp.intercepts_[0], mlp.coefs_[1], mlp.intercepts_[1], mean, std)

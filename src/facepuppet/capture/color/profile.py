@@ -205,7 +205,7 @@ def load_profile(path: str | os.PathLike) -> Profile:
             lids={k[5:]: v for k, v in data.items() if k.startswith("lids_")},
             shapes=_shapes(data, path),
             name=str(data["name"]),
-            # profiles written before the reach was learned have none: the generic one
+            # a profile file without a learned reach has the generic one
             mouth_reach=float(data.get("mouth_reach", GENERIC_MOUTH_REACH)),
         )
     except KeyError as e:

@@ -3,15 +3,11 @@
 The colour tracker's rules (:mod:`~facepuppet.capture.color.rules`) move each lip and brow curve of the layout by
 a few numbers read off its blob: the mouth's corners and one shift per curve, the brow's height and tilt. The
 blob's edges follow the light and the head's turn as much as the expression, and a curve's shape beyond those
-few numbers is the layout's. On the digital performer the lips' points wandered from the true ones nearly as
-much as the expressions move them (1.9 against 2.2 mm RMS) and the brows' 1.1 against 1.3 mm; with the lips
-and brows made true the demo's error fell from 0.71 to 0.15. So with the performer profile (§3.1, trained
-on frames labelled by the landmark backend or, in the demo, by the true curves) comes, per family, a ridge
-regression from the look of the face crop around the family to its curves, as the eyelid model
-(:mod:`~facepuppet.capture.color.lids`) does for the lids. Each eye has one too (both lids and their corners): the
-rules read the eyes on the contrast C, whose weights the colour network predicts, and two networks trained on
-the same frames to nearly the same loss gave the demo 0.41 and 0.52 (a numeric difference of 1e-6 between two
-OpenCV builds set them apart); with the eyes' models both gave 0.37-0.41 (seeds 0-2).
+few numbers is the layout's. So with the performer profile (§3.1, trained on frames labelled by the landmark
+backend or, in the demo, by the true curves) comes, per family, a ridge regression from the look of the face
+crop around the family to its curves, as the eyelid model (:mod:`~facepuppet.capture.color.lids`) does for the
+lids. Each eye has one too (both lids and their corners): the rules read the eyes on the contrast C, whose
+weights the colour network predicts, and so depend on that network's training; the eyes' models do not.
 
 Geometry, for one family (:data:`FAMILIES`): its box is the bounding box of its curves in the layout as the
 tracker placed it on the crop (the face frame with the eyes' correction), widened by :data:`MARGINS` (shares
@@ -34,7 +30,7 @@ __all__ = ["FAMILIES", "MARGINS", "PATCH_SIZE", "JITTER", "family_box", "family_
            "training_pairs", "fit_shape_model", "apply_shape_models"]
 
 #: Curves read by each family's model, CURVE_NAMES indices. Each brow has its own: one model over both
-#: brows let one brow's motion read as the other's (on performer_b its blink correlation fell from 0.63 to 0.37).
+#: brows lets one brow's motion read as the other's.
 FAMILIES: dict[str, np.ndarray] = {
     "lips": np.array([i for i, n in enumerate(CURVE_NAMES) if n.startswith("lip_")]),
     "brow_left": np.array([CURVE_NAMES.index("brow_left")]),

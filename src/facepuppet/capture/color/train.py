@@ -32,11 +32,26 @@ __all__ = ["train_profile", "label_frame", "to_face_units", "relight", "feature_
 log = logging.getLogger(__name__)
 
 _IDX = {n: i for i, n in enumerate(CURVE_NAMES)}
-_PX = 48.0
 
-#: Relighting of the training copies: (gain range, warmth range, gamma range); warmth t scales R by 1 + t and
-#: B by 1 - t.
-_RELIGHT = ((0.45, 1.3), (-0.3, 0.3), (0.8, 1.25))
+#: Ranges of the training copies' gain, warmth t (R scaled by 1 + t, B by 1 - t) and gamma.
+RELIGHT = ((0.45, 1.3), (-0.3, 0.3), (0.8, 1.25))
+
+# Tuning constants                          unit          what it does
+TRAIN_PX = 48.0                             # crop px/unit  resolution of the training crops
+MIN_LABEL_UNIT = 6                          # image pixels  smallest labelled face (eye-centre distance) used
+MIN_MASK_PIXELS = 10                        # pixels        fewest feature and skin pixels of a usable frame
+BROW_LINE = 0.08                            # face units    thickness of a labelled brow as feature pixels
+LID_LINE = 0.05                             # face units    thickness of a labelled upper lid as feature pixels
+MASK_SAMPLES = 16                           # points        along each labelled curve drawn into the masks
+SKIN_COV_GAIN = 2.0                         # ratio         widening of the skin colour's covariance
+SKIN_COV_FLOOR = 9.0                        # (8-bit)^2     added to the covariance's diagonal
+SKIN_THRESHOLD = 6.0                        # Mahalanobis^2 the skin model's threshold
+MIN_LIP_PIXELS = 20                         # pixels        fewest saturated lip pixels to learn the lips' hue
+LIP_HUE_SPREAD = 1.5                        # ratio         the hue bump's width, times the lips' circular spread
+LIP_HUE_WIDTH = (10.0, 30.0)                # degrees       bounds of the hue bump's width
+REACH_MARGIN = 0.03                         # face units    added to the mouth corners' largest offset
+REACH_MAX = 0.35                            # face units    largest mouth reach learned
+ANCHOR_PASSES = 2                           # passes        of the eye anchors' fixed point on the labelled frames
 
 
 def label_frame(curves: np.ndarray) -> FaceFrame:
@@ -64,7 +79,7 @@ def relight(rgb: np.ndarray, gain: float, warmth: float, gamma: float) -> np.nda
     return cv2.LUT(np.ascontiguousarray(rgb, dtype=np.uint8), table.reshape(256, 1, 3))
 
 
-def feature_and_skin_masks(curves_px: np.ndarray, size: tuple[int, int], px: float = _PX):
+def feature_and_skin_masks(curves_px: np.ndarray, size: tuple[int, int], px: float = TRAIN_PX):
     """Masks (H, W) bool of labelled feature pixels and of skin pixels in a crop.
 
     Features: brows and upper lids as thick lines, the lips and mouth opening as the area between the outer
@@ -72,12 +87,12 @@ def feature_and_skin_masks(curves_px: np.ndarray, size: tuple[int, int], px: flo
     """
     w, h = size
     feat = np.zeros((h, w), np.uint8)
-    for name, thick in (("brow_left", 0.08), ("brow_right", 0.08), ("eye_left_upper", 0.05),
-                        ("eye_right_upper", 0.05)):
-        pts = np.round(bezier_points(curves_px[_IDX[name]], 16)).astype(np.int32)
+    for name, thick in (("brow_left", BROW_LINE), ("brow_right", BROW_LINE), ("eye_left_upper", LID_LINE),
+                        ("eye_right_upper", LID_LINE)):
+        pts = np.round(bezier_points(curves_px[_IDX[name]], MASK_SAMPLES)).astype(np.int32)
         cv2.polylines(feat, [pts], False, 1, thickness=max(1, int(round(thick * px))))
-    lips = np.concatenate([bezier_points(curves_px[_IDX["lip_upper_outer"]], 16),
-                           bezier_points(curves_px[_IDX["lip_lower_outer"]], 16)[::-1]])
+    lips = np.concatenate([bezier_points(curves_px[_IDX["lip_upper_outer"]], MASK_SAMPLES),
+                           bezier_points(curves_px[_IDX["lip_lower_outer"]], MASK_SAMPLES)[::-1]])
     cv2.fillPoly(feat, [np.round(lips).astype(np.int32)], 1)
     skin = np.zeros((h, w), bool)
     for name in ("cheek_left", "cheek_right", "forehead"):
@@ -89,7 +104,7 @@ def feature_and_skin_masks(curves_px: np.ndarray, size: tuple[int, int], px: flo
     return feat.astype(bool), skin & ~grown
 
 
-def face_crop(rgb: np.ndarray, frame: FaceFrame, px: float = _PX):
+def face_crop(rgb: np.ndarray, frame: FaceFrame, px: float = TRAIN_PX):
     """The upright face crop of ``frame`` in the RGB frame, with its crop matrix (2, 3) and size (w, h)."""
     A = frame.crop_matrix(px)
     size = frame.crop_size(px)
@@ -103,35 +118,36 @@ def _skin_model(crops, skins) -> SkinModel:
         cc.append(ycc[skin][:, 1:].astype(float))
     cc = np.concatenate(cc)
     mean = cc.mean(axis=0)
-    cov = np.cov(cc.T) * 2.0 + 9.0 * np.eye(2)
-    return SkinModel((float(mean[0]), float(mean[1])), tuple(tuple(map(float, r)) for r in cov), 6.0)
+    cov = np.cov(cc.T) * SKIN_COV_GAIN + SKIN_COV_FLOOR * np.eye(2)
+    return SkinModel((float(mean[0]), float(mean[1])), tuple(tuple(map(float, r)) for r in cov), SKIN_THRESHOLD)
 
 
 def _lip_hue(crops, curves_px, base: LipHue) -> LipHue:
     hues = []
     for crop, cur in zip(crops, curves_px, strict=True):
         m = np.zeros(crop.shape[:2], np.uint8)
-        poly = np.concatenate([bezier_points(cur[_IDX["lip_upper_outer"]], 16),
-                               bezier_points(cur[_IDX["lip_upper_inner"]], 16)[::-1]])
+        poly = np.concatenate([bezier_points(cur[_IDX["lip_upper_outer"]], MASK_SAMPLES),
+                               bezier_points(cur[_IDX["lip_upper_inner"]], MASK_SAMPLES)[::-1]])
         cv2.fillPoly(m, [np.round(poly).astype(np.int32)], 1)
         hsv = cv2.cvtColor(crop, cv2.COLOR_RGB2HSV)
         sel = (m > 0) & (hsv[..., 1] >= base.min_saturation * 255)
         hues.append(hsv[..., 0][sel].astype(float) * 2.0)
     h = np.radians(np.concatenate(hues)) if hues else np.zeros(0)
-    if len(h) < 20:
+    if len(h) < MIN_LIP_PIXELS:
         return base
     c, s = np.cos(h).mean(), np.sin(h).mean()
     centre = float(np.degrees(np.arctan2(s, c)) % 360.0)
     spread = float(np.degrees(np.sqrt(max(-2.0 * np.log(max(np.hypot(c, s), 1e-6)), 0.0))))
-    return LipHue(centre, float(np.clip(1.5 * spread, 10.0, 30.0)), base.min_saturation)
+    return LipHue(centre, float(np.clip(LIP_HUE_SPREAD * spread, *LIP_HUE_WIDTH)), base.min_saturation)
 
 
 def mouth_reach_of(layouts: np.ndarray, layout: np.ndarray, least: float) -> float:
     """How far the mouth corners move from the mean layout in the labelled frames (F, C, 4, 2), face units:
-    their largest offset on either axis plus a margin of 0.03, at least ``least`` and at most 0.35."""
+    their largest offset on either axis plus :data:`REACH_MARGIN`, at least ``least`` and at most
+    :data:`REACH_MAX`."""
     c = _IDX["lip_upper_outer"]
     offsets = np.abs(layouts[:, c, [0, 3]] - layout[c, [0, 3]])
-    return float(np.clip(offsets.max() + 0.03, least, 0.35))
+    return float(np.clip(offsets.max() + REACH_MARGIN, least, REACH_MAX))
 
 
 def train_profile(frames, curves, *, base: Profile | None = None, name: str = "performer", augment: int = 6,
@@ -182,13 +198,13 @@ def train_profile(frames, curves, *, base: Profile | None = None, name: str = "p
         if rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.dtype != np.uint8:
             raise ValueError(f"frames[{k}] must be an (H, W, 3) uint8 image, got {rgb.shape} {rgb.dtype}")
         frame = label_frame(curves[k])
-        if frame.unit < 6:
+        if frame.unit < MIN_LABEL_UNIT:
             continue
         layouts.append(to_face_units(curves[k], frame))
         crop, A, size = face_crop(rgb, frame)
         cpx = curves[k] @ A[:, :2].T + A[:, 2]
         feat, skin = feature_and_skin_masks(cpx, size)
-        if feat.sum() < 10 or skin.sum() < 10:
+        if feat.sum() < MIN_MASK_PIXELS or skin.sum() < MIN_MASK_PIXELS:
             continue
         crops.append((rgb, frame))
         labels.append(curves[k])
@@ -208,12 +224,12 @@ def train_profile(frames, curves, *, base: Profile | None = None, name: str = "p
     for i, j in tqdm(work, desc="profile", unit="frame", disable=not progress):
         rgb, fr = crops[i]
         if j is not None:
-            (g0, g1), (t0, t1), (c0, c1) = _RELIGHT
+            (g0, g1), (t0, t1), (c0, c1) = RELIGHT
             rgb = relight(rgb, rng.uniform(g0, g1), rng.uniform(t0, t1), rng.uniform(c0, c1))
         crop = face_crop(rgb, fr)[0]
         ch = channels(crop, table, lip.min_saturation)
         ys.append(separating_weights(ch[:, feats[i]].T, ch[:, skins[i]].T))
-        xs.append(subarea_means(crop, _PX))
+        xs.append(subarea_means(crop, TRAIN_PX))
     xs, ys = np.array(xs), np.array(ys)
     net = ColourNet.fit(xs, ys, seed=seed)
     weights = ys[:len(crops)].mean(axis=0)
@@ -221,7 +237,7 @@ def train_profile(frames, curves, *, base: Profile | None = None, name: str = "p
                       net=net.to_arrays(), name=name, mouth_reach=reach)
     # The eye anchors: where the tracker's eye search lands, in face units, on the labelled frames.
     anchors = np.asarray(profile.anchors, dtype=float).copy()
-    for _ in range(2):
+    for _ in range(ANCHOR_PASSES):
         tracker = ColorTracker(replace(profile, anchors=anchors), config=options)
         got = []
         for rgb, fr in crops:
@@ -241,7 +257,7 @@ def train_profile(frames, curves, *, base: Profile | None = None, name: str = "p
     pairs: dict[str, tuple[list, list]] = {family: ([], []) for family in FAMILIES}
     for i, (rgb, fr) in enumerate(crops):
         got = tracker.track(rgb, 100 * i)
-        A = fr.crop_matrix(_PX)
+        A = fr.crop_matrix(TRAIN_PX)
         tracked.append(got.curves @ A[:, :2].T + A[:, 2] if got.valid else None)
         if got.valid and tracker.seen is not None:
             crop, A_seen, placed = tracker.seen
@@ -268,6 +284,8 @@ _MIN_SHAPE_PATCHES = 20 * (JITTER[0] + 1)
 _LID_JITTER = 4
 #: Largest jitter of the eye's centre (spans) and of its span (ratio) in those copies.
 _LID_SHIFT, _LID_SCALE = 0.04, 0.06
+#: Fewest eye patches (jittered copies included) for an eyelid model.
+MIN_LID_PATCHES = 20
 
 
 def _lid_model(crops, curves_px, tracked, rng) -> dict:
@@ -293,6 +311,6 @@ def _lid_model(crops, curves_px, tracked, rng) -> dict:
                     # The same lids seen from the shifted centre, in the changed span.
                     xs.append(x)
                     ys.append((target * span - dm @ n) / (span * ds))
-    if len(xs) < 20:
+    if len(xs) < MIN_LID_PATCHES:
         return {}
     return fit_lid_model(np.array(xs), np.array(ys))

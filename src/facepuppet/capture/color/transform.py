@@ -20,6 +20,7 @@ import numba as nb
 import numpy as np
 
 from facepuppet._util.jit import INNER, KERNEL
+from facepuppet.capture.color.face import SKIN_Y_MAX, SKIN_Y_MIN
 from facepuppet.capture.color.rules.kernels import median_of_boxes, top_of_boxes
 
 __all__ = [
@@ -32,8 +33,6 @@ __all__ = [
     "SPECK",
     "CONTRAST_LOW",
     "CONTRAST_HIGH",
-    "SKIN_Y_MIN",
-    "SKIN_Y_MAX",
     "hsv_u8",
     "ycrcb_u8",
     "skin_fraction",
@@ -53,9 +52,6 @@ CONTRAST_HIGH = 0.75   # fraction    C reaches 1 this far from the skin level to
 SPECK = 2.0
 #: Span of the smooth step, as a fraction of the skin-to-feature distance.
 CONTRAST_SPAN = CONTRAST_HIGH - CONTRAST_LOW
-# Skin test (skin_fraction, as face.skin_probability): only pixels of luma Y in SKIN_Y_MIN..SKIN_Y_MAX (0..255)
-SKIN_Y_MIN = 35
-SKIN_Y_MAX = 250
 
 
 @dataclass(frozen=True)
@@ -216,8 +212,8 @@ def ycrcb_u8(r: int, g: int, b: int):
 
 @nb.njit(**KERNEL)
 def skin_fraction(crop: np.ndarray, boxes: np.ndarray, table: np.ndarray) -> float:
-    """Fraction of the pixels of the rectangles whose (Cr, Cb) the skin table accepts (Y in
-    :data:`SKIN_Y_MIN` .. :data:`SKIN_Y_MAX`), as
+    """Fraction of the pixels of the rectangles whose (Cr, Cb) the skin table accepts (luma Y in
+    :data:`~.face.SKIN_Y_MIN` .. :data:`~.face.SKIN_Y_MAX`), as
     :func:`~facepuppet.capture.color.face.skin_probability`."""
     n = 0
     hit = 0

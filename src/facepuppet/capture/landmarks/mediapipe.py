@@ -100,8 +100,8 @@ class MediaPipeConfig:
         landmarker calls).
     refine_scales : tuple of float
         For still images: the landmarker is run again on square crops around the face found, of these sizes
-        relative to the face's extent, and the landmarks averaged (measured on the annotated images of the
-        shared assets, this halves the error on turned or small faces); empty to disable.
+        relative to the face's extent, and the landmarks averaged (steadier on turned or small faces); empty
+        to disable.
     focal : float or None
         Focal length in pixels of the camera for the head pose (default: the larger frame side).
     """
