@@ -169,8 +169,8 @@ def test_the_tracker_reads_the_lips_with_the_profiles_model():
 
 
 def test_a_profile_with_shape_models_keeps_the_face_frame_filtered(monkeypatch):
-    """The filters restart only when the face is (re)acquired or time does not move, not on every frame: a
-    reset put under the shape filter's condition once restarted the face frame's filter on every frame."""
+    """The filters restart only when the face is (re)acquired or time does not move, not on every frame (with
+    shape models too: their filter's restart must not restart the face frame's)."""
     from facepuppet.capture.color.tracker import ColorTracker
     from facepuppet.demo.performer import render_performer
     from facepuppet.demo.script import calibration_script
@@ -186,7 +186,7 @@ def test_a_profile_with_shape_models_keeps_the_face_frame_filtered(monkeypatch):
     resets.clear()
     for k in range(2, 14):
         assert tracker.track(frames[k], 33 * k).valid
-    assert sum(r is tracker.smoother.frame for r in resets) <= 1, len(resets)     # 12 with the misplaced reset
+    assert sum(r is tracker.smoother.frame for r in resets) <= 1, len(resets)
 
 
 def test_the_rules_a_profiles_models_replace_are_not_run():

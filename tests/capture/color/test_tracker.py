@@ -216,7 +216,7 @@ def test_inner_lips_follow_the_mouth_opening_on_the_digital_performer():
 def test_a_small_face_found_again_keeps_its_size(assets, tmp_path):
     """performer_c shrunk to 2/5 on a grey frame and written as MPEG-4 (a face about 80 pixels wide): a blink
     makes the likeness check drop it near frame 90; finding it again must not take a frame twice its size that
-    also looks somewhat like a face (before the size cost: 66 pixels between the eyes instead of 32)."""
+    also looks somewhat like a face (the size cost, :class:`~facepuppet.capture.color.config.AcquireConfig`)."""
     frames = _frames(assets / "video" / "performer_c.mp4", 130)
     h, w = frames[0].shape[:2]
     path = tmp_path / "small.mp4"
