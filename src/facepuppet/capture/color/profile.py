@@ -3,7 +3,7 @@
 A profile holds the colour-weight network of §3.1 (its layer arrays; rebuilt without pickle), the lips' hue
 function G, the performer's skin colour, and the performer's mean feature layout in the face frame (curves in
 face units, see :mod:`facepuppet.capture.color.face`) with the blob anchors the tracker aligns the face frame on.
-:func:`default_profile` is a generic adult face with generic weights; it needs no calibration and no
+:func:`default_profile` is a generic adult face with generic weights; it needs no training and no
 MediaPipe. :func:`~facepuppet.capture.color.train.train_profile` learns a performer's profile from labelled frames.
 """
 
