@@ -221,6 +221,7 @@ def bind_points(points: np.ndarray, reference: np.ndarray) -> WireBind:
     a = reference[:-1]
     e = np.diff(reference, axis=0)
     ee = np.einsum("ij,ij->i", e, e)
+    ee = np.where(ee > 0, ee, 1.0)                          # a zero segment binds at its start
     n = len(points)
     seg = np.empty(n, dtype=np.intp)
     tt = np.empty(n)
