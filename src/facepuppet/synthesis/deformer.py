@@ -21,7 +21,6 @@ from facepuppet.synthesis.wire import (
     check_curve,
     check_points,
     check_positive,
-    curve_at,
     curve_tangents,
     displace,
     falloff,
@@ -56,22 +55,29 @@ def combine_displacements(point_index: np.ndarray, delta: np.ndarray, n_points: 
     (N, 3) float
         sum_k Delta p_k ||Delta p_k||^m / sum_k ||Delta p_k||^m per point (0 where the denominator is 0).
     """
+    d = np.ascontiguousarray(np.asarray(delta, dtype=float).T)
+    return _combine(np.asarray(point_index), d, n_points, float(exponent), active).T.copy()
+
+
+def _combine(point_index: np.ndarray, delta: np.ndarray, n_points: int, exponent: float,
+             active: np.ndarray | None) -> np.ndarray:
+    """:func:`combine_displacements` on component-major (3, P) displacements; returns (3, N)."""
+    sq = delta[0] * delta[0] + delta[1] * delta[1] + delta[2] * delta[2]
     if exponent == 0:
-        w = np.ones(len(delta))
+        w = np.ones(len(sq))
     elif exponent == 1:
-        w = np.sqrt(np.einsum("ij,ij->i", delta, delta))
+        w = np.sqrt(sq)
     elif exponent == 2:
-        w = np.einsum("ij,ij->i", delta, delta)
+        w = sq
     else:
-        w = np.einsum("ij,ij->i", delta, delta) ** (0.5 * exponent)
+        w = sq ** (0.5 * exponent)
     if active is not None:
         w = np.where(active, w, 0.0)
     den = np.bincount(point_index, weights=w, minlength=n_points)
-    out = np.zeros((n_points, 3))
+    inv = np.divide(1.0, den, out=np.zeros_like(den), where=den > 0)
+    out = np.empty((3, n_points))
     for c in range(3):
-        out[:, c] = np.bincount(point_index, weights=w * delta[:, c], minlength=n_points)
-    moved = den > 0
-    out[moved] /= den[moved, None]
+        out[c] = np.bincount(point_index, weights=w * delta[c], minlength=n_points) * inv
     return out
 
 
@@ -165,11 +171,15 @@ class WireDeformer:
         self.pair_point = np.concatenate(idx)
         self.pair_wire = np.concatenate(wire)
         self._seg = np.concatenate(seg)
+        self._seg1 = self._seg + 1
         self._t = np.concatenate(t)
+        self._1t = 1.0 - self._t
         self.pair_distance = np.concatenate(dist)
-        self._closest = np.concatenate(closest).reshape(-1, 3)
-        self._offset = self.points[self.pair_point] - self._closest
-        self._tangent = np.concatenate(tangent).reshape(-1, 3)
+        closest = np.concatenate(closest).reshape(-1, 3)
+        # component-major (3, P) copies for the per-frame passes
+        self._closest = np.ascontiguousarray(closest.T)
+        self._offset = np.ascontiguousarray((self.points[self.pair_point] - closest).T)
+        self._tangent = np.ascontiguousarray(np.concatenate(tangent).reshape(-1, 3).T)
         self._influence = falloff(self.pair_distance / self.radii[self.pair_wire])
 
     def influence(self, radii=None) -> np.ndarray:
@@ -197,18 +207,60 @@ class WireDeformer:
         return falloff(self.pair_distance / r[self.pair_wire])
 
     def _wire_arrays(self, wires) -> tuple[np.ndarray, np.ndarray]:
+        """Concatenated wire curves (sum K_k, 3) and their unit vertex tangents, checked."""
         if isinstance(wires, np.ndarray) and wires.ndim == 3:
             if wires.shape[0] != self.n_wires or wires.shape[2] != 3 or (self.sizes != wires.shape[1]).any():
                 raise ValueError(f"wires must hold {self.n_wires} curves of sizes {self.sizes.tolist()}, "
                                  f"got shape {wires.shape}")
-            if not np.isfinite(wires).all():
-                raise ValueError("wires must be finite")
-            curves = list(wires.astype(float, copy=False))
+            pts = wires.reshape(-1, 3).astype(float, copy=False)
         else:
             if len(wires) != self.n_wires:
                 raise ValueError(f"wires must hold {self.n_wires} curves, got {len(wires)}")
-            curves = [check_curve(c, f"wires[{k}]", k=int(self.sizes[k])) for k, c in enumerate(wires)]
-        return np.concatenate(curves), np.concatenate([vertex_tangents(c) for c in curves])
+            curves = [np.asarray(c, dtype=float) for c in wires]
+            for k, c in enumerate(curves):
+                if c.shape != (self.sizes[k], 3):
+                    check_curve(c, f"wires[{k}]", k=int(self.sizes[k]))       # raises, naming the curve
+            pts = np.concatenate(curves)
+        if not np.isfinite(pts).all():
+            k = int(np.searchsorted(np.cumsum(self.sizes), np.flatnonzero(~np.isfinite(pts).all(1))[0], "right"))
+            raise ValueError(f"wires[{k}] must be finite")
+        # unit vertex tangents of every curve at once: segments joining two curves are left out
+        e = np.diff(pts, axis=0)
+        e[self._start[1:] - 1] = 0.0
+        n = np.sqrt(np.einsum("ij,ij->i", e, e))[:, None]
+        e = np.divide(e, n, out=np.zeros_like(e), where=n > 1e-12)
+        tan = np.zeros_like(pts)
+        tan[:-1] += e
+        tan[1:] += e
+        n = np.sqrt(np.einsum("ij,ij->i", tan, tan))[:, None]
+        return pts, np.divide(tan, n, out=np.zeros_like(tan), where=n > 1e-12)
+
+    def _deltas(self, wires, scales, radii) -> tuple[np.ndarray, np.ndarray]:
+        """(3, P) displacements Delta p_k of the pairs and (P,) F."""
+        w_pts, w_tan = self._wire_arrays(wires)
+        if scales is None:
+            s = 1.0
+        else:
+            sv = np.asarray(scales, dtype=float)
+            if sv.ndim == 0:
+                sv = np.full(self.n_wires, float(sv))
+            if sv.shape != (self.n_wires,) or not np.isfinite(sv).all():
+                raise ValueError(f"scales must be a finite number or have shape ({self.n_wires},), "
+                                 f"got {np.shape(scales)}")
+            s = sv[self.pair_wire]
+        f = self._pair_influence(radii)
+        seg, seg1, t, t1 = self._seg, self._seg1, self._t, self._1t
+        wp, wt = np.ascontiguousarray(w_pts.T), np.ascontiguousarray(w_tan.T)
+        translate = np.empty_like(self._closest)
+        tangent = np.empty_like(self._closest)
+        for c in range(3):
+            translate[c] = wp[c][seg] * t1 + wp[c][seg1] * t - self._closest[c]
+            tangent[c] = wt[c][seg] * t1 + wt[c][seg1] * t
+        norm = np.sqrt(tangent[0] * tangent[0] + tangent[1] * tangent[1] + tangent[2] * tangent[2])
+        tangent *= np.divide(1.0, norm, out=np.zeros_like(norm), where=norm > 1e-12)
+        moved = displace(self._offset, f, self._tangent, translate, tangent, s)
+        moved -= self._offset
+        return moved, f
 
     def pair_displacements(self, wires, scales=None, *, radii=None) -> tuple[np.ndarray, np.ndarray]:
         """Each wire's own displacement Delta p_k of each bound pair.
@@ -229,22 +281,8 @@ class WireDeformer:
         influence : (P,) float
             F_k(p) of each pair.
         """
-        w_pts, w_tan = self._wire_arrays(wires)
-        if scales is None:
-            s = 1.0
-        else:
-            sv = np.asarray(scales, dtype=float)
-            if sv.ndim == 0:
-                sv = np.full(self.n_wires, float(sv))
-            if sv.shape != (self.n_wires,) or not np.isfinite(sv).all():
-                raise ValueError(f"scales must be a finite number or have shape ({self.n_wires},), "
-                                 f"got {np.shape(scales)}")
-            s = sv[self.pair_wire]
-        f = self._pair_influence(radii)
-        wp = curve_at(w_pts, self._seg, self._t)
-        wt = curve_tangents(w_tan, self._seg, self._t)
-        moved = displace(self._offset, f, self._tangent, wp, self._closest, wt, s)
-        return moved - self._offset, f
+        delta, f = self._deltas(wires, scales, radii)
+        return delta.T.copy(), f
 
     def deform(self, wires, scales=None, *, radii=None) -> np.ndarray:
         """Deformed mesh for the given wire curves.
@@ -263,6 +301,6 @@ class WireDeformer:
         (N, 3) float
             p + the combined displacement (module docstring).
         """
-        delta, f = self.pair_displacements(wires, scales, radii=radii)
-        return self.points + combine_displacements(self.pair_point, delta, len(self.points), self.exponent,
-                                                   f > 0)
+        delta, f = self._deltas(wires, scales, radii)
+        active = None if radii is None else f > 0
+        return self.points + _combine(self.pair_point, delta, len(self.points), self.exponent, active).T

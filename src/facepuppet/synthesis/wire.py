@@ -41,6 +41,9 @@ __all__ = [
     "curve_at",
     "curve_tangents",
     "displace",
+    "check_curve",
+    "check_points",
+    "check_positive",
     "falloff",
     "vertex_tangents",
     "wire_deform",
@@ -48,8 +51,6 @@ __all__ = [
 
 #: Below this length (in the curve's units) a tangent or a rotation axis counts as degenerate.
 _EPS = 1e-12
-#: Points bound per block in :func:`bind_points` (bounds the (block, K - 1) work arrays).
-_BIND_BLOCK = 4096
 
 
 def falloff(x: np.ndarray) -> np.ndarray:
@@ -211,82 +212,76 @@ def bind_points(points: np.ndarray, reference: np.ndarray) -> WireBind:
     ----------
     points : (N, 3) float
     reference : (K, 3) float
-        Polyline with non-zero segments.
+        Polyline (a zero-length segment binds at its start).
 
     Returns
     -------
     WireBind
         Ties between segments go to the lower segment index.
     """
-    a = reference[:-1]
-    e = np.diff(reference, axis=0)
-    ee = np.einsum("ij,ij->i", e, e)
-    ee = np.where(ee > 0, ee, 1.0)                          # a zero segment binds at its start
+    px, py, pz = (np.ascontiguousarray(points[:, c]) for c in range(3))
     n = len(points)
-    seg = np.empty(n, dtype=np.intp)
-    tt = np.empty(n)
-    for lo in range(0, n, _BIND_BLOCK):
-        p = points[lo:lo + _BIND_BLOCK]
-        rel = p[:, None, :] - a[None]                       # (B, K-1, 3)
-        t = np.clip(np.einsum("bkj,kj->bk", rel, e) / ee, 0.0, 1.0)
-        d2 = np.einsum("bkj,bkj->bk", rel - t[..., None] * e, rel - t[..., None] * e)
-        j = np.argmin(d2, axis=1)
-        seg[lo:lo + len(p)] = j
-        tt[lo:lo + len(p)] = t[np.arange(len(p)), j]
+    best = np.full(n, np.inf)
+    seg = np.zeros(n, dtype=np.intp)
+    tt = np.zeros(n)
+    for j in range(len(reference) - 1):
+        a, e = reference[j], reference[j + 1] - reference[j]
+        ee = float(e @ e)
+        rx, ry, rz = px - a[0], py - a[1], pz - a[2]
+        t = (rx * e[0] + ry * e[1] + rz * e[2]) / ee if ee > 0 else np.zeros(n)
+        np.clip(t, 0.0, 1.0, out=t)
+        rx -= t * e[0]
+        ry -= t * e[1]
+        rz -= t * e[2]
+        d2 = rx * rx + ry * ry + rz * rz
+        better = d2 < best
+        best[better], seg[better], tt[better] = d2[better], j, t[better]
     closest = curve_at(reference, seg, tt)
     return WireBind(seg=seg, t=tt, closest=closest, distance=np.linalg.norm(points - closest, axis=1))
 
 
-def rotate(v: np.ndarray, axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
-    """Rotate vectors about unit axes by angles (Rodrigues), row by row.
-
-    Parameters
-    ----------
-    v : (P, 3) float
-    axis : (P, 3) float
-        Unit axes (a zero axis leaves its row unchanged).
-    angle : (P,) float
-        Radians, right-handed about the axis.
-    """
-    c = np.cos(angle)[:, None]
-    s = np.sin(angle)[:, None]
-    kv = np.einsum("ij,ij->i", axis, v)[:, None]
-    return v * c + np.cross(axis, v) * s + axis * kv * (1.0 - c)
-
-
-def displace(offset: np.ndarray, influence: np.ndarray, ref_tangent: np.ndarray, wire_point: np.ndarray,
-             ref_point: np.ndarray, wire_tangent: np.ndarray, scale: np.ndarray | float) -> np.ndarray:
+def displace(offset: np.ndarray, influence: np.ndarray, ref_tangent: np.ndarray, translate: np.ndarray,
+             wire_tangent: np.ndarray, scale: np.ndarray | float) -> np.ndarray:
     """Deformed position minus R(u_p) of bound points: the scale, rotation and translation of one wire.
 
+    Arrays are component-major (3, P): row c holds coordinate c of every point, so each step is a pass over
+    contiguous rows.
+
     Parameters
     ----------
-    offset : (P, 3) float
+    offset : (3, P) float
         p - R(u_p).
     influence : (P,) float
         F(p).
-    ref_tangent, wire_tangent : (P, 3) float
-        Unit tangents R'(u_p), W'(u_p) (zero rows: no rotation).
-    wire_point, ref_point : (P, 3) float
-        W(u_p), R(u_p).
+    ref_tangent, wire_tangent : (3, P) float
+        Unit tangents R'(u_p), W'(u_p) (zero columns: no rotation).
+    translate : (3, P) float
+        W(u_p) - R(u_p).
     scale : float or (P,) float
         s.
 
     Returns
     -------
-    (P, 3) float
+    (3, P) float
         p_def - R(u_p) (see the module's formulas).
     """
-    f = influence[:, None]
-    v = offset * (1.0 + (np.asarray(scale, dtype=float).reshape(-1, 1) - 1.0) * f)
-    axis = np.cross(ref_tangent, wire_tangent)
-    sin = np.linalg.norm(axis, axis=1)
-    cos = np.einsum("ij,ij->i", ref_tangent, wire_tangent)
-    turn = sin > _EPS
-    if turn.any():
-        a = axis[turn] / sin[turn, None]
-        theta = np.arctan2(sin[turn], cos[turn])
-        v[turn] = rotate(v[turn], a, influence[turn] * theta)
-    return v + f * (wire_point - ref_point)
+    f = influence
+    g = 1.0 + (scale - 1.0) * f
+    vx, vy, vz = offset[0] * g, offset[1] * g, offset[2] * g
+    (ax, ay, az), (bx, by, bz) = ref_tangent, wire_tangent
+    cx, cy, cz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx          # R' x W'
+    sin = np.sqrt(cx * cx + cy * cy + cz * cz)
+    cos = ax * bx + ay * by + az * bz
+    inv = np.divide(1.0, sin, out=np.zeros_like(sin), where=sin > _EPS)
+    kx, ky, kz = cx * inv, cy * inv, cz * inv                                    # unit axis (0: no turn)
+    phi = np.where(sin > _EPS, f * np.arctan2(sin, cos), 0.0)                  # F theta
+    c, s = np.cos(phi), np.sin(phi)
+    kv = (kx * vx + ky * vy + kz * vz) * (1.0 - c)
+    out = np.empty((3, len(f)))
+    out[0] = vx * c + (ky * vz - kz * vy) * s + kx * kv + f * translate[0]
+    out[1] = vy * c + (kz * vx - kx * vz) * s + ky * kv + f * translate[1]
+    out[2] = vz * c + (kx * vy - ky * vx) * s + kz * kv + f * translate[2]
+    return out
 
 
 def wire_deform(points, reference, wire, radius, *, scale: float = 1.0) -> np.ndarray:
@@ -341,5 +336,6 @@ def wire_deform(points, reference, wire, radius, *, scale: float = 1.0) -> np.nd
     ref_t = curve_tangents(vertex_tangents(r_curve), seg, t)
     wire_t = curve_tangents(vertex_tangents(w_curve), seg, t)
     rp = b.closest[near]
-    out[near] = rp + displace(p[near] - rp, f, ref_t, curve_at(w_curve, seg, t), rp, wire_t, s)
+    move = displace((p[near] - rp).T, f, ref_t.T, (curve_at(w_curve, seg, t) - rp).T, wire_t.T, s)
+    out[near] = rp + move.T
     return out
