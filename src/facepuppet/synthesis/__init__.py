@@ -4,6 +4,8 @@
 binds a mesh to several reference curves once and deforms it per frame. ``find_wire_paths`` finds (or
 ``read_wire_paths`` reads) a character's wires as vertex paths, ``fit_wires`` represents each key-model by its
 wire curves and (r, s) per wire, and ``reproduction_errors`` says how much of each key-model they reproduce.
+``region_masks`` / ``regional_blend`` / ``split_targets`` blend key-models region by region (the wires'
+influence as a partition of unity).
 """
 
 from facepuppet.synthesis.deformer import DEFAULT_EXPONENT, WireDeformer, combine_displacements
@@ -18,6 +20,7 @@ from facepuppet.synthesis.paths import (
     read_wire_paths,
     write_wire_paths,
 )
+from facepuppet.synthesis.regions import region_masks, region_support, regional_blend, split_targets
 from facepuppet.synthesis.wire import bind_points, falloff, wire_deform
 
 __all__ = [
@@ -36,7 +39,11 @@ __all__ = [
     "fit_wires",
     "mesh_graph",
     "read_wire_paths",
+    "region_masks",
+    "region_support",
+    "regional_blend",
     "reproduction_errors",
+    "split_targets",
     "wire_deform",
     "write_wire_paths",
 ]
