@@ -218,12 +218,14 @@ def find_wire_paths(character: Character, options: FindOptions | None = None) ->
 
     Notes
     -----
-    Greedy: with m_i(v) = ||T_i(v) - T_B(v)|| and the uncovered motion c(v) = max_i m_i(v) (initially),
-    each step takes the vertex v0 of largest c, the key-model i0 that moves it most, and the region S: the
+    Greedy: with m_i(v) = ||T_i(v) - T_B(v)|| and the uncovered motion c_i(v) = m_i(v) (initially), each
+    step takes the key-model i0 and vertex v0 of largest c, and the region S: the
     vertices connected to v0 through vertices with m_i0 >= threshold * m_i0(v0). The path is the shortest
-    edge path inside S between S's two extreme vertices along S's principal axis (on T_B). Then c is
-    multiplied by 1 - f(dist / rho) (f the wires' falloff, dist the distance to the path, rho the largest
-    distance of S from it) and set to 0 on S, so the next wire goes where motion is still uncovered.
+    edge path inside S between S's two extreme vertices along S's principal axis (on T_B). Then each
+    key-model's uncovered motion c_i is multiplied by 1 - a_i f(dist / rho) (f the wires' falloff, dist the
+    distance to the path, rho the largest distance of S from it, a_i in [0, 1] the share of key-model i's
+    motion near the path that the path's own vertices see: a wire covers what its curve moves with), set to
+    0 on S, and key-model i0 is done; the next wire goes where motion is still uncovered.
     """
     opts = options or FindOptions()
     if character.faces is None:
@@ -245,7 +247,10 @@ def find_wire_paths(character: Character, options: FindOptions | None = None) ->
         region = _region(graph, motion[i0], int(v0), opts.threshold)
         path = _principal_path(graph, base, region, motion[i0])
         rho = _covered_radius(base, path, region)
-        uncovered *= 1.0 - falloff(_distance_to_path(base, base[path]) / rho)[None]
+        dist = _distance_to_path(base, base[path])
+        local = motion[:, dist < rho].max(axis=1)
+        seen = np.divide(motion[:, path].max(axis=1), local, out=np.zeros_like(local), where=local > 0)
+        uncovered *= 1.0 - np.clip(seen, 0.0, 1.0)[:, None] * falloff(dist / rho)[None]
         uncovered[:, region] = 0.0
         uncovered[i0] = 0.0
         name = base_name = str(character.names[i0])
