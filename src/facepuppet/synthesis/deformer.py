@@ -72,9 +72,9 @@ def _combine(point_index: np.ndarray, delta: np.ndarray, n_points: int, exponent
     else:
         w = sq ** (0.5 * exponent)
     if active is not None:
-        w = np.where(active, w, 0.0)
+        w = w * active
     den = np.bincount(point_index, weights=w, minlength=n_points)
-    inv = np.divide(1.0, den, out=np.zeros_like(den), where=den > 0)
+    inv = (den > 0) / np.maximum(den, np.finfo(float).tiny)
     out = np.empty((3, n_points))
     for c in range(3):
         out[c] = np.bincount(point_index, weights=w * delta[c], minlength=n_points) * inv
@@ -249,15 +249,16 @@ class WireDeformer:
                                  f"got {np.shape(scales)}")
             s = sv[self.pair_wire]
         f = self._pair_influence(radii)
-        seg, seg1, t, t1 = self._seg, self._seg1, self._t, self._1t
-        wp, wt = np.ascontiguousarray(w_pts.T), np.ascontiguousarray(w_tan.T)
-        translate = np.empty_like(self._closest)
-        tangent = np.empty_like(self._closest)
-        for c in range(3):
-            translate[c] = wp[c][seg] * t1 + wp[c][seg1] * t - self._closest[c]
-            tangent[c] = wt[c][seg] * t1 + wt[c][seg1] * t
+        both = np.concatenate([w_pts.T, w_tan.T])                          # (6, sum K): W and W'
+        g = both.take(self._seg, axis=1)
+        g *= self._1t
+        g1 = both.take(self._seg1, axis=1)
+        g1 *= self._t
+        g += g1                                                             # W(u_p) and the lerped W'(u_p)
+        translate, tangent = g[:3], g[3:]
+        translate -= self._closest
         norm = np.sqrt(tangent[0] * tangent[0] + tangent[1] * tangent[1] + tangent[2] * tangent[2])
-        tangent *= np.divide(1.0, norm, out=np.zeros_like(norm), where=norm > 1e-12)
+        tangent *= (norm > 1e-12) / np.maximum(norm, 1e-12)
         moved = displace(self._offset, f, self._tangent, translate, tangent, s)
         moved -= self._offset
         return moved, f

@@ -267,20 +267,30 @@ def displace(offset: np.ndarray, influence: np.ndarray, ref_tangent: np.ndarray,
     """
     f = influence
     g = 1.0 + (scale - 1.0) * f
-    vx, vy, vz = offset[0] * g, offset[1] * g, offset[2] * g
+    v = offset * g                                                               # scaled offset (3, P)
     (ax, ay, az), (bx, by, bz) = ref_tangent, wire_tangent
-    cx, cy, cz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx          # R' x W'
-    sin = np.sqrt(cx * cx + cy * cy + cz * cz)
+    k = np.empty_like(v)                                                         # R' x W'
+    np.multiply(ay, bz, out=k[0])
+    k[0] -= az * by
+    np.multiply(az, bx, out=k[1])
+    k[1] -= ax * bz
+    np.multiply(ax, by, out=k[2])
+    k[2] -= ay * bx
+    sin = np.sqrt(k[0] * k[0] + k[1] * k[1] + k[2] * k[2])
     cos = ax * bx + ay * by + az * bz
-    inv = np.divide(1.0, sin, out=np.zeros_like(sin), where=sin > _EPS)
-    kx, ky, kz = cx * inv, cy * inv, cz * inv                                    # unit axis (0: no turn)
-    phi = np.where(sin > _EPS, f * np.arctan2(sin, cos), 0.0)                  # F theta
+    turn = sin > _EPS
+    k *= turn / np.maximum(sin, _EPS)                                            # unit axis (0: no turn)
+    phi = np.arctan2(sin, cos)
+    phi *= f * turn                                                              # F theta (0: no turn)
     c, s = np.cos(phi), np.sin(phi)
-    kv = (kx * vx + ky * vy + kz * vz) * (1.0 - c)
-    out = np.empty((3, len(f)))
-    out[0] = vx * c + (ky * vz - kz * vy) * s + kx * kv + f * translate[0]
-    out[1] = vy * c + (kz * vx - kx * vz) * s + ky * kv + f * translate[1]
-    out[2] = vz * c + (kx * vy - ky * vx) * s + kz * kv + f * translate[2]
+    kv = k[0] * v[0] + k[1] * v[1] + k[2] * v[2]
+    kv *= 1.0 - c
+    out = v * c
+    out[0] += (k[1] * v[2] - k[2] * v[1]) * s
+    out[1] += (k[2] * v[0] - k[0] * v[2]) * s
+    out[2] += (k[0] * v[1] - k[1] * v[0]) * s
+    out += k * kv
+    out += translate * f
     return out
 
 
