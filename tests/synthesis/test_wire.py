@@ -166,3 +166,18 @@ def test_deformation_is_continuous_across_a_bend():
 def test_bad_input_names_the_argument(call, word):
     with pytest.raises(ValueError, match=word.replace("[", r"\[").replace("]", r"\]")):
         call()
+
+
+def test_float32_passes_match_float64(rng):
+    refs = [np.cumsum(rng.normal(size=(6, 3)), axis=0) for _ in range(3)]
+    wires = [r + rng.normal(scale=0.3, size=r.shape) for r in refs]
+    pts = np.concatenate(refs)[rng.integers(0, 18, 2000)] + rng.normal(scale=1.0, size=(2000, 3))
+    exact = WireDeformer(pts, refs, 1.5).deform(wires, [0.8, 1.0, 1.3])
+    fast = WireDeformer(pts, refs, 1.5, dtype=np.float32)
+    got = fast.deform(wires, [0.8, 1.0, 1.3])
+    assert got.dtype == np.float64
+    np.testing.assert_allclose(got, exact, atol=1e-5 * np.ptp(pts))
+    np.testing.assert_allclose(fast.deform(wires, radii=1.0), WireDeformer(pts, refs, 1.0).deform(wires),
+                               atol=1e-5 * np.ptp(pts))
+    with pytest.raises(ValueError, match="dtype"):
+        WireDeformer(pts, refs, 1.5, dtype=np.int32)
