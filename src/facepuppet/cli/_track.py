@@ -69,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
             profile_hash=file_digest(args.profile) if args.profile else None, stack=stack))
         overlay = None
         if args.preview:
-            from facepuppet.capture.overlay import draw_overlay
+            from facepuppet.export.overlay import draw_overlay
             from facepuppet.export.preview import open_preview
 
             # written while tracking (one pass, works for a camera too); kept only if everything succeeds;
