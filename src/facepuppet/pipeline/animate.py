@@ -274,17 +274,32 @@ def track_frames(track: Track, source=None, *, max_frames: int | None = None) ->
 class _Recorder:
     """The output that keeps the take's weights (and, if asked, its features) for the returned Animation."""
 
+    #: Rows per block of the weights kept (blocks of plain float64: 16 bytes a weight, no object per frame).
+    BLOCK = 4096
+
     def __init__(self, keep_track: bool) -> None:
         self.keep_track = keep_track
-        self.raw: list[np.ndarray] = []
+        self.raw: list[np.ndarray] = []       # blocks of (BLOCK, M), the last one filled up to _fill
         self.weights: list[np.ndarray] = []
+        self._fill = self.BLOCK
         self.features: list[FrameFeatures] = []
 
     def write(self, frame: StreamFrame) -> None:
-        self.raw.append(frame.raw)
-        self.weights.append(frame.weights)
+        if self._fill == self.BLOCK:
+            m = len(frame.weights)
+            self.raw.append(np.empty((self.BLOCK, m)))
+            self.weights.append(np.empty((self.BLOCK, m)))
+            self._fill = 0
+        self.raw[-1][self._fill] = frame.raw
+        self.weights[-1][self._fill] = frame.weights
+        self._fill += 1
         if self.keep_track:
             self.features.append(frame.features)
+
+    def _rows(self, blocks: list[np.ndarray], m: int) -> np.ndarray:
+        if not blocks:
+            return np.zeros((0, m))
+        return np.concatenate([*blocks[:-1], blocks[-1][:self._fill]]).reshape(-1, m)
 
     def finish(self) -> None:
         pass
@@ -297,8 +312,8 @@ class _Recorder:
             track = features_to_track(self.features, fps=fps, frame_size=frame_size, backend=backend or "",
                                       static_extras=static_extras)
         m = len(rig.names)
-        raw = np.array(self.raw).reshape(-1, m)
-        return Animation(np.array(self.weights).reshape(-1, m), raw, tuple(rig.names), float(fps), track,
+        raw = self._rows(self.raw, m)
+        return Animation(self._rows(self.weights, m), raw, tuple(rig.names), float(fps), track,
                          valid_frames=np.isfinite(raw).all(axis=1))
 
 
