@@ -86,3 +86,23 @@ def test_output_inside_an_input_folder(files):
     folder, a = files
     with pytest.raises(FacepuppetError, match="in folder"):
         check_paths({"--character": str(folder)}, {"-o": str(a)})
+
+
+def test_every_command_declares_its_files():
+    """A new subcommand must say which arguments it reads and writes, or the checks would pass it by."""
+    import argparse
+
+    from facepuppet.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    for name, p in sub.choices.items():
+        inputs, outputs = p.get_default("inputs"), p.get_default("outputs")
+        assert inputs is not None and outputs is not None, name
+        dests = {a.dest for a in p._actions}
+        for dest, _label in (*inputs, *outputs):
+            assert dest in dests, (name, dest)
+        file_like = {a.dest for a in p._actions if a.metavar and any(
+            x in str(a.metavar) for x in (".npz", ".glb", ".csv", ".mp4", ".json", "MEDIA", "SOURCE", "TASK"))}
+        declared = {d for d, _ in (*inputs, *outputs)}
+        assert file_like <= declared, (name, file_like - declared)
