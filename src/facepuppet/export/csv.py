@@ -150,20 +150,21 @@ def write_weights_csv(path: str | os.PathLike, weights: np.ndarray, names: Seque
         values[:, : len(count)] /= np.maximum(count, 1)
         if angles is not None:
             values[:, len(count): len(count) + 3] = angles / np.pi
-        lead = [[llf_timecode(t), str(len(LLF_BLENDSHAPES) + len(LLF_HEAD_EYES))] for t in times]
+        n_columns = str(len(LLF_BLENDSHAPES) + len(LLF_HEAD_EYES))
+        lead = ([llf_timecode(t), n_columns] for t in times)     # row by row: memory flat in the take
     else:
         header = ["time", "valid", *names]
         values = weights
         if angles is not None:
             header += ["head_yaw", "head_pitch", "head_roll"]
             values = np.concatenate([weights, angles], axis=1)
-        lead = [[f"{t:.6f}", str(int(v))] for t, v in zip(times, ok, strict=True)]
+        lead = ([f"{t:.6f}", str(int(v))] for t, v in zip(times, ok, strict=True))
     with atomic_path(path, suffix=".csv") as tmp:
         with open(tmp, "w", newline="", encoding="utf-8") as fh:
             writer = csv.writer(fh, lineterminator="\n")
             writer.writerow(header)
-            for first, row in zip(lead, values.tolist(), strict=True):
-                writer.writerow(first + [_number(x) for x in row])
+            for first, row in zip(lead, values, strict=True):
+                writer.writerow(first + [_number(x) for x in row.tolist()])
     return layout
 
 
