@@ -17,7 +17,7 @@ from facepuppet.errors import FacepuppetError
 __all__ = ["main"]
 
 #: Subcommands in the order `facepuppet --help` lists them.
-COMMANDS = ("demo", "track", "calibrate", "rig", "animate", "live")
+COMMANDS = ("demo", "track", "calibrate", "rig", "animate", "batch", "live")
 
 
 def build_parser() -> argparse.ArgumentParser:
