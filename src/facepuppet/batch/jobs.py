@@ -10,7 +10,7 @@ from a list file (:func:`read_list`): CSV, one clip per row, columns
            clip's stem
 =========  ============================================================================================
 
-The header row (``clip,rig,output`` in any order, some left out) is optional; without one the columns are
+The header row (``clip,rig,output`` in any order, ``rig`` and ``output`` optional) is optional; without one the columns are
 positional. Blank rows and rows starting with ``#`` are skipped.
 """
 
@@ -120,7 +120,7 @@ def read_list(path: str | os.PathLike, rig: str | None = None) -> list[Job]:
     rows = [(n, [c.strip() for c in r]) for n, r in rows if r and any(c.strip() for c in r)
             and not r[0].lstrip().startswith("#")]
     columns = LIST_COLUMNS
-    if rows and rows[0][1][0].lower() == "clip":
+    if rows and "clip" in (c.lower() for c in rows[0][1]):
         n, header = rows.pop(0)
         unknown = [c for c in header if c.lower() not in LIST_COLUMNS]
         if unknown:
