@@ -3,15 +3,15 @@
 A batch is a list of :class:`Job` (one per clip). Its inputs come from the command line (clips and one rig) or
 from a list file (:func:`read_list`): CSV, one clip per row, columns
 
-=========  ============================================================================================
-``clip``   the performance (video or image folder); relative paths are taken from the list's folder
-``rig``    its rig file (same rule); empty or absent: the batch's ``--rig``
-``output`` the outputs' name without extension (``OUTDIR/<output>.glb`` ...); empty or absent: the
-           clip's stem
-=========  ============================================================================================
+==========  ==========================================================================================
+``clip``    the performance (video or image folder); relative paths are taken from the list's folder
+``rig``     its rig file (same rule); empty or absent: the batch's ``--rig``
+``output``  the outputs' name without extension (``OUTDIR/<output>.glb`` ...); empty or absent: the
+            clip's stem
+==========  ==========================================================================================
 
-The header row (``clip,rig,output`` in any order, ``rig`` and ``output`` optional) is optional; without one the columns are
-positional. Blank rows and rows starting with ``#`` are skipped.
+A header row is optional: with one (``clip,rig,output`` in any order, ``rig`` and ``output`` may be left out)
+the columns go by name, without one by position. Blank rows and rows starting with ``#`` are skipped.
 """
 
 from __future__ import annotations

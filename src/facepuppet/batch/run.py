@@ -22,6 +22,7 @@ from facepuppet.batch.engines import ENGINES
 from facepuppet.batch.jobs import Job, check_rigs, check_unique, file_sha256, options_sha256, output_paths
 from facepuppet.batch.report import Row, can_skip, read_report, write_report
 from facepuppet.batch.worker import ClipResult, ClipTask
+from facepuppet.pipeline.animate import AnimateConfig
 
 __all__ = ["BatchConfig", "BatchSummary", "run_batch", "REPORT_NAME"]
 
@@ -37,8 +38,8 @@ class BatchConfig:
 
     Attributes
     ----------
-    animate : AnimateConfig
-        How every clip is tracked and mapped (as ``facepuppet animate`` takes it).
+    animate : AnimateConfig or None
+        How every clip is tracked and mapped (as ``facepuppet animate`` takes it); None: the defaults.
     csv, preview : bool
         Also write ``<name>.csv`` / ``<name>.mp4`` beside each ``<name>.glb``.
     engine : str
@@ -51,7 +52,7 @@ class BatchConfig:
         The progress bar; None shows it when stderr is a terminal.
     """
 
-    animate: object = None
+    animate: AnimateConfig | None = None
     csv: bool = False
     preview: bool = False
     engine: str = "local"
@@ -128,8 +129,6 @@ def run_batch(jobs: list[Job], outdir: str | os.PathLike, config: BatchConfig) -
         Before anything runs: two jobs writing the same outputs, a missing rig, profile or model, an unknown
         engine. ``KeyboardInterrupt`` when interrupted (Ctrl-C or SIGTERM), after the workers ended.
     """
-    from facepuppet.pipeline.animate import AnimateConfig
-
     if config.engine not in ENGINES:
         raise ValueError(f"--engine: {config.engine!r} is not one of {', '.join(ENGINES)}")
     animate_config = config.animate or AnimateConfig()

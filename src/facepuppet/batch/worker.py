@@ -20,6 +20,8 @@ import sys
 import time
 from dataclasses import dataclass
 
+from facepuppet.pipeline.animate import AnimateConfig
+
 __all__ = ["ClipTask", "ClipResult", "run_clip", "run_guarded", "cached_rig", "guard_worker", "one_line",
            "Terminated", "PROGRESS_EVERY_S"]
 
@@ -54,7 +56,7 @@ class ClipTask:
     rig: str
     rig_sha256: str
     outputs: dict
-    config: object
+    config: AnimateConfig
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -147,7 +149,12 @@ class Terminated(BaseException):
     """Raised in a worker by SIGTERM: unwinds the clip (its temporary files go) and ends the process."""
 
 
+_IN_CLIP = False      # a clip is running in this process (SIGTERM unwinds it rather than ending at once)
+
+
 def _on_sigterm(signum, frame) -> None:
+    if not _IN_CLIP:
+        os._exit(128 + signal.SIGTERM)
     raise Terminated()
 
 
@@ -171,7 +178,11 @@ def guard_worker() -> None:
 
 def run_guarded(task: ClipTask, queue=None, rig=None) -> ClipResult:
     """:func:`run_clip`, ending the process at once after a SIGTERM has unwound it."""
+    global _IN_CLIP
+    _IN_CLIP = True
     try:
         return run_clip(task, queue, rig)
     except Terminated:
         os._exit(128 + signal.SIGTERM)
+    finally:
+        _IN_CLIP = False
