@@ -131,6 +131,14 @@ def test_bad_arguments_are_one_line(clips, tmp_path, capsys):
     assert not (tmp_path / "o" / "report.csv").exists()
 
 
+def test_ray_missing_is_one_line_naming_the_extra(clips, tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "ray", None)          # `import ray` fails as without the extra
+    assert main(batch_args(clips, [clips["good"]["c1"]], tmp_path / "o", "--engine", "ray")) == 1
+    err = capsys.readouterr().err.strip()
+    assert err == 'facepuppet batch: error: --engine ray needs Ray: pip install "facepuppet[ray]"'
+    assert not (tmp_path / "o").exists()
+
+
 @pytest.fixture(scope="module")
 def ray_runtime():
     need(importlib.util.find_spec("ray") is not None, 'the ray extra is not installed (pip install "facepuppet[ray]")')

@@ -9,6 +9,7 @@ every clip, and a rerun skips what it lists as done with unchanged content hashe
 from __future__ import annotations
 
 import contextlib
+import importlib.util
 import logging
 import os
 import signal
@@ -18,10 +19,11 @@ import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from facepuppet.batch.engines import ENGINES
+from facepuppet.batch.engines import ENGINES, RAY_MISSING
 from facepuppet.batch.jobs import Job, check_rigs, check_unique, file_sha256, options_sha256, output_paths
 from facepuppet.batch.report import Row, can_skip, read_report, write_report
 from facepuppet.batch.worker import ClipResult, ClipTask
+from facepuppet.errors import FacepuppetError
 from facepuppet.pipeline.animate import AnimateConfig
 
 __all__ = ["BatchConfig", "BatchSummary", "run_batch", "REPORT_NAME"]
@@ -131,6 +133,8 @@ def run_batch(jobs: list[Job], outdir: str | os.PathLike, config: BatchConfig) -
     """
     if config.engine not in ENGINES:
         raise ValueError(f"--engine: {config.engine!r} is not one of {', '.join(ENGINES)}")
+    if config.engine == "ray" and importlib.util.find_spec("ray") is None:
+        raise FacepuppetError(RAY_MISSING)
     animate_config = config.animate or AnimateConfig()
     check_unique(jobs)
     rig_hashes = check_rigs(jobs)

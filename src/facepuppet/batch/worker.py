@@ -30,6 +30,9 @@ log = logging.getLogger(__name__)
 #: Seconds between two progress messages of a worker.
 PROGRESS_EVERY_S = 0.25
 
+#: prctl(2) option: the signal this process gets when its parent dies (linux/prctl.h).
+_PR_SET_PDEATHSIG = 1
+
 #: Rigs loaded in this process: rig sha256 -> Rig.
 _RIGS: dict[str, object] = {}
 
@@ -168,11 +171,12 @@ def guard_worker() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)        # Ctrl-C reaches the batch, which ends its workers
     if sys.platform.startswith("linux"):
         import ctypes
+        import multiprocessing
 
-        pr_set_pdeathsig = 1
         with contextlib.suppress(OSError, AttributeError):
-            ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, signal.SIGTERM)
-        if os.getppid() == 1:           # the parent died before the signal was asked for
+            ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+        parent = multiprocessing.parent_process()
+        if parent is not None and os.getppid() != parent.pid:      # it died before the signal was asked for
             os._exit(128 + signal.SIGTERM)
 
 
