@@ -65,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
         stack.callback(tracker.close)
         on_frame = None
         if args.preview:
-            from facepuppet.capture.overlay import OverlayWriter
+            from facepuppet.export.overlay import OverlayWriter
 
             # written while tracking (one pass, works for a camera too); kept only if everything succeeds
             overlay = stack.enter_context(OverlayWriter(args.preview, source.frame_size, source.fps))

@@ -1,6 +1,6 @@
 """Side-by-side preview video: the input with its tracked curves on the left, the character on the right.
 
-Frame k of the preview is input frame k (with :func:`facepuppet.capture.overlay.draw_overlay`) beside the
+Frame k of the preview is input frame k (with :func:`facepuppet.export.overlay.draw_overlay`) beside the
 character posed with the weights of frame k (rendered on the CPU by :func:`facepuppet.export.render.render_mesh`),
 both at the input's height. The file is an MPEG-4 video (``mp4v``), written atomically: a reader never sees a
 half-written preview, and a failure leaves none.
