@@ -155,9 +155,16 @@ class Terminated(BaseException):
 _IN_CLIP = False      # a clip is running in this process (SIGTERM unwinds it rather than ending at once)
 
 
+def _die_by_sigterm() -> None:
+    """End this process at once, by SIGTERM's default action (no clean-up of the worker loop)."""
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    os.kill(os.getpid(), signal.SIGTERM)
+    raise SystemExit(128 + signal.SIGTERM)      # not reached unless the signal is blocked
+
+
 def _on_sigterm(signum, frame) -> None:
     if not _IN_CLIP:
-        os._exit(128 + signal.SIGTERM)
+        _die_by_sigterm()
     raise Terminated()
 
 
@@ -177,7 +184,7 @@ def guard_worker() -> None:
             ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
         parent = multiprocessing.parent_process()
         if parent is not None and os.getppid() != parent.pid:      # it died before the signal was asked for
-            os._exit(128 + signal.SIGTERM)
+            _die_by_sigterm()
 
 
 def run_guarded(task: ClipTask, queue=None, rig=None) -> ClipResult:
@@ -187,6 +194,6 @@ def run_guarded(task: ClipTask, queue=None, rig=None) -> ClipResult:
     try:
         return run_clip(task, queue, rig)
     except Terminated:
-        os._exit(128 + signal.SIGTERM)
+        _die_by_sigterm()
     finally:
         _IN_CLIP = False
