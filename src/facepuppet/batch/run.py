@@ -8,17 +8,15 @@ every clip, and a rerun skips what it lists as done with unchanged content hashe
 
 from __future__ import annotations
 
-import contextlib
 import importlib.util
 import logging
 import os
-import signal
 import sys
-import threading
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from facepuppet._util.interrupt import handle_signals
 from facepuppet.batch.engines import ENGINES, RAY_MISSING
 from facepuppet.batch.jobs import Job, check_rigs, check_unique, file_sha256, options_sha256, output_paths
 from facepuppet.batch.report import Row, can_skip, read_report, write_report
@@ -92,23 +90,6 @@ def _frame_count(clip: str) -> int:
         return 0
 
 
-@contextlib.contextmanager
-def _sigterm_as_interrupt():
-    """In the main thread, SIGTERM raises KeyboardInterrupt (the engines then end their workers)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
-    def handler(signum, frame):
-        raise KeyboardInterrupt
-
-    old = signal.signal(signal.SIGTERM, handler)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, old)
-
-
 def run_batch(jobs: list[Job], outdir: str | os.PathLike, config: BatchConfig) -> BatchSummary:
     """Animate every job's clip into ``outdir`` and write ``outdir/report.csv``.
 
@@ -129,7 +110,8 @@ def run_batch(jobs: list[Job], outdir: str | os.PathLike, config: BatchConfig) -
     ------
     ValueError, FileNotFoundError, FacepuppetError
         Before anything runs: two jobs writing the same outputs, a missing rig, profile or model, an unknown
-        engine. ``KeyboardInterrupt`` when interrupted (Ctrl-C or SIGTERM), after the workers ended.
+        engine. :class:`~facepuppet._util.interrupt.Interrupted` (a ``KeyboardInterrupt``) on Ctrl-C, SIGTERM
+        or SIGHUP, after the workers ended.
     """
     if config.engine not in ENGINES:
         raise ValueError(f"--engine: {config.engine!r} is not one of {', '.join(ENGINES)}")
@@ -200,7 +182,7 @@ def run_batch(jobs: list[Job], outdir: str | os.PathLike, config: BatchConfig) -
             bar.set_postfix(counts)
 
         runner = ENGINES[config.engine]
-        with _sigterm_as_interrupt():
+        with handle_signals():
             runner(tasks, workers=config.workers or os.cpu_count() or 1, address=config.address,
                    on_progress=on_progress, on_result=on_result)
     done = finished()

@@ -20,10 +20,11 @@ import sys
 import time
 from dataclasses import dataclass
 
+from facepuppet._util.interrupt import Interrupted, handle_signals
 from facepuppet.pipeline.animate import AnimateConfig
 
 __all__ = ["ClipTask", "ClipResult", "run_clip", "run_guarded", "cached_rig", "guard_worker", "one_line",
-           "Terminated", "PROGRESS_EVERY_S"]
+           "PROGRESS_EVERY_S"]
 
 log = logging.getLogger(__name__)
 
@@ -139,6 +140,8 @@ def run_clip(task: ClipTask, queue=None, rig=None) -> ClipResult:
         anim = animate(task.clip, rig, glb=out.get("glb"), csv=out.get("csv"), preview=out.get("preview"),
                        config=config, keep_track=False, on_frame=progress)
     except Exception as e:      # noqa: BLE001 - a failing clip is a row of the report, the batch goes on
+        if isinstance(e.__cause__, Interrupted) or isinstance(e.__context__, Interrupted):
+            raise           # a stop raised inside compiled code's C wrapper (SystemError): not the clip's fault
         progress.flush()
         log.debug("clip %s failed", task.clip, exc_info=True)
         return ClipResult(index=task.index, ok=False, frames=progress.count, seconds=time.perf_counter() - t0,
@@ -148,13 +151,6 @@ def run_clip(task: ClipTask, queue=None, rig=None) -> ClipResult:
                       seconds=time.perf_counter() - t0)
 
 
-class Terminated(BaseException):
-    """Raised in a worker by SIGTERM: unwinds the clip (its temporary files go) and ends the process."""
-
-
-_IN_CLIP = False      # a clip is running in this process (SIGTERM unwinds it rather than ending at once)
-
-
 def _die_by_sigterm() -> None:
     """End this process at once, by SIGTERM's default action (no clean-up of the worker loop)."""
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
@@ -162,20 +158,15 @@ def _die_by_sigterm() -> None:
     raise SystemExit(128 + signal.SIGTERM)      # not reached unless the signal is blocked
 
 
-def _on_sigterm(signum, frame) -> None:
-    if not _IN_CLIP:
-        _die_by_sigterm()
-    raise Terminated()
-
-
 def guard_worker() -> None:
     """Make this worker process end cleanly with the batch.
 
-    SIGTERM unwinds the running clip (``animate``'s temporary outputs are removed on the way) before the process
-    exits; on Linux the process also gets SIGTERM when its parent dies, however it died.
+    SIGTERM between clips ends the process; during a clip (:func:`run_guarded`) it stops the clip at the next
+    frame (:mod:`facepuppet._util.interrupt`), whose temporary outputs are removed on the way out. On Linux the
+    process also gets SIGTERM when its parent dies, however it died. Ctrl-C is left to the batch, which ends
+    its workers.
     """
-    signal.signal(signal.SIGTERM, _on_sigterm)
-    signal.signal(signal.SIGINT, signal.SIG_IGN)        # Ctrl-C reaches the batch, which ends its workers
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     if sys.platform.startswith("linux"):
         import ctypes
         import multiprocessing
@@ -188,12 +179,10 @@ def guard_worker() -> None:
 
 
 def run_guarded(task: ClipTask, queue=None, rig=None) -> ClipResult:
-    """:func:`run_clip`, ending the process at once after a SIGTERM has unwound it."""
-    global _IN_CLIP
-    _IN_CLIP = True
+    """:func:`run_clip`, ending the process once a SIGTERM has stopped and unwound the clip."""
     try:
-        return run_clip(task, queue, rig)
-    except Terminated:
+        with handle_signals():
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+            return run_clip(task, queue, rig)
+    except Interrupted:
         _die_by_sigterm()
-    finally:
-        _IN_CLIP = False

@@ -19,7 +19,10 @@ def register(subparsers) -> None:
     p.add_argument("--track", metavar="TRACK.npz", help="reuse a track of MEDIA instead of tracking again")
     add_mapping_arguments(p)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.set_defaults(run=run)
+    p.set_defaults(run=run,
+                   inputs=(("media", "MEDIA"), ("rig", "--rig"), ("profile", "--profile"), ("model", "--model"),
+                           ("track", "--track")),
+                   outputs=(("output", "-o"), ("csv", "--csv"), ("preview", "--preview")))
 
 
 def add_mapping_arguments(p: argparse.ArgumentParser) -> None:

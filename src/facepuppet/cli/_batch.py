@@ -31,7 +31,8 @@ def register(subparsers) -> None:
                    help="Ray cluster to use (e.g. auto or ray://head:10001); default: start a local one")
     add_mapping_arguments(p)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.set_defaults(run=run)
+    p.set_defaults(run=run, inputs=(("list", "--list"), ("rig", "--rig"), ("profile", "--profile"),
+                                    ("model", "--model")))
 
 
 def run(args: argparse.Namespace) -> int:

@@ -103,6 +103,7 @@ class OverlayWriter:
 
         self._atomic = atomic_path(self.path, suffix=".mp4")
         tmp = self._atomic.__enter__()
+        self._tmp = tmp
         self._writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*"mp4v"), self.fps, self.frame_size)
         if not self._writer.isOpened():
             self.__exit__(FacepuppetError, None, None)
@@ -125,11 +126,16 @@ class OverlayWriter:
             self._writer = None
         if self._atomic is not None:
             atomic, self._atomic = self._atomic, None
-            if exc_type is None and self.n_frames == 0:
-                exc_type = FacepuppetError
-                exc = FacepuppetError(f"{self.path}: no frames to write")
-                atomic.__exit__(exc_type, exc, None)
-                raise exc
+            if exc_type is None:
+                try:
+                    if self.n_frames == 0:
+                        raise FacepuppetError(f"{self.path}: no frames to write")
+                    from facepuppet.export.preview import check_video
+
+                    check_video(self._tmp, self.n_frames, label=self.path)   # a full disk is told here
+                except FacepuppetError as e:
+                    atomic.__exit__(type(e), e, None)
+                    raise
             atomic.__exit__(exc_type, exc, tb)
 
 

@@ -16,13 +16,13 @@ from __future__ import annotations
 import base64
 import logging
 import os
-import urllib.parse
 from pathlib import Path
 
 import numpy as np
 
 from facepuppet.errors import FacepuppetError
 from facepuppet.io.character_type import Character
+from facepuppet.io.external import read_external
 from facepuppet.io.glb import ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, GltfBuilder, vertex_normals
 
 __all__ = ["read_gltf", "write_glb", "add_character", "quaternion_matrix"]
@@ -35,6 +35,8 @@ _NORM = {5120: 127.0, 5121: 255.0, 5122: 32767.0, 5123: 65535.0, 5125: 429496729
 #: Required extensions that store vertices where plain accessors cannot read them.
 _COMPRESSION = {"KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_meshopt_compression"}
 _WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}
+#: Most items one accessor may hold (vertices, indices): a bound on what a damaged file can ask to allocate.
+_MAX_COUNT = 50_000_000
 
 
 def read_gltf(path: str | os.PathLike, *, mesh: str | int | None = None) -> Character:
@@ -74,16 +76,20 @@ def read_gltf(path: str | os.PathLike, *, mesh: str | int | None = None) -> Char
     reader = _Reader(gltf, path)
     if not gltf.meshes:
         raise FacepuppetError(f"{path}: no mesh in the file")
-    instances = _mesh_instances(gltf)
-    if mesh is not None:
-        index = _find_mesh(gltf, mesh, path)
-        chosen = [(m, mat) for m, mat in instances if m == index] or [(index, np.eye(4))]
-    else:
-        chosen = [(m, mat) for m, mat in instances if any(p.targets for p in gltf.meshes[m].primitives)]
-        if not chosen:
-            raise FacepuppetError(f"{path}: no mesh has morph targets (key-models)")
-    parts = [reader.mesh(m, mat) for m, mat in chosen]
-    return _join(parts, name=_character_name(gltf, chosen, path), path=path)
+    try:
+        instances = _mesh_instances(gltf)
+        if mesh is not None:
+            index = _find_mesh(gltf, mesh, path)
+            chosen = [(m, mat) for m, mat in instances if m == index] or [(index, np.eye(4))]
+        else:
+            chosen = [(m, mat) for m, mat in instances if any(p.targets for p in gltf.meshes[m].primitives)]
+            if not chosen:
+                raise FacepuppetError(f"{path}: no mesh has morph targets (key-models)")
+        parts = [reader.mesh(m, mat) for m, mat in chosen]
+        return _join(parts, name=_character_name(gltf, chosen, path), path=path)
+    except (IndexError, KeyError, TypeError, AttributeError) as e:   # an index to nothing, a missing field
+        raise FacepuppetError(f"{path}: damaged glTF ({type(e).__name__}: {e}; an index points at nothing "
+                              f"or a required field is missing)") from e
 
 
 def write_glb(path: str | os.PathLike, character: Character, *, normals: bool = False) -> None:
@@ -158,11 +164,7 @@ class _Reader:
                 except (IndexError, ValueError) as e:
                     raise FacepuppetError(f"{self.path}: buffer {index} has a bad data URI") from e
             else:
-                file = self.path.parent / urllib.parse.unquote(buf.uri)
-                try:
-                    data = file.read_bytes()
-                except OSError as e:
-                    raise FacepuppetError(f"{self.path}: cannot read buffer file {file} ({e.strerror})") from e
+                data = read_external(self.path, buf.uri, buf.byteLength, f"buffer {index}")
             if len(data) < buf.byteLength:
                 raise FacepuppetError(f"{self.path}: buffer {index} holds {len(data)} bytes, "
                                       f"needs {buf.byteLength}")
@@ -170,11 +172,13 @@ class _Reader:
         return self._buffers[index]
 
     def _view(self, view_index: int, offset: int, count: int, dtype, width: int, stride: int | None = None):
-        view = self.gltf.bufferViews[view_index]
-        data = self.buffer(view.buffer)
+        view = self.gltf.bufferViews[_index(view_index, self.gltf.bufferViews, "buffer view", self.path)]
+        data = self.buffer(_index(view.buffer, self.gltf.buffers, "buffer", self.path))
         start = (view.byteOffset or 0) + offset
         item = np.dtype(dtype).itemsize * width
         stride = stride or view.byteStride or item
+        if start < 0 or count < 0 or stride <= 0 or offset < 0:
+            raise FacepuppetError(f"{self.path}: buffer view {view_index} has a negative offset, count or stride")
         end = start + (count - 1) * stride + item if count else start
         if end > (view.byteOffset or 0) + view.byteLength or end > len(data):
             raise FacepuppetError(f"{self.path}: accessor data runs past buffer view {view_index}")
@@ -184,7 +188,9 @@ class _Reader:
 
     def accessor(self, index: int) -> np.ndarray:
         """Decode accessor ``index`` to an (N, k) array: float64 for float/normalised data, else int64."""
-        acc = self.gltf.accessors[index]
+        acc = self.gltf.accessors[_index(index, self.gltf.accessors, "accessor", self.path)]
+        if not isinstance(acc.count, int) or not 0 <= acc.count <= _MAX_COUNT:
+            raise FacepuppetError(f"{self.path}: accessor {index} has count {acc.count!r} (0 to {_MAX_COUNT})")
         if acc.componentType not in _DTYPE or acc.type not in _WIDTH:
             raise FacepuppetError(f"{self.path}: accessor {index} has unsupported type "
                                   f"{acc.type}/{acc.componentType}")
@@ -272,6 +278,13 @@ class _Reader:
         tri = np.stack([idx[k], idx[k + 1], idx[k + 2]], axis=1)  # strip: flip every other triangle
         tri[1::2, [1, 2]] = tri[1::2, [2, 1]]
         return tri
+
+
+def _index(i, items, what: str, path: Path) -> int:
+    """``i`` if it indexes ``items`` (a glTF array), else FacepuppetError naming the file."""
+    if not isinstance(i, int) or isinstance(i, bool) or not 0 <= i < len(items or ()):
+        raise FacepuppetError(f"{path}: {what} {i!r} does not exist (the file has {len(items or ())})")
+    return i
 
 
 def _target_names(extras) -> list[str] | None:
