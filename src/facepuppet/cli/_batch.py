@@ -32,7 +32,8 @@ def register(subparsers) -> None:
     add_mapping_arguments(p)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(run=run, inputs=(("list", "--list"), ("rig", "--rig"), ("profile", "--profile"),
-                                    ("model", "--model")))
+                                    ("model", "--model")),
+                   outputs=(("output", "-o"),), folder_outputs=("output",))
 
 
 def run(args: argparse.Namespace) -> int:
