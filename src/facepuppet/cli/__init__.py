@@ -25,7 +25,7 @@ from facepuppet.errors import FacepuppetError
 __all__ = ["main", "error_line"]
 
 #: Subcommands in the order `facepuppet --help` lists them.
-COMMANDS = ("demo", "track", "calibrate", "rig", "animate", "live")
+COMMANDS = ("demo", "track", "calibrate", "rig", "animate", "batch", "live")
 
 
 def build_parser() -> argparse.ArgumentParser:

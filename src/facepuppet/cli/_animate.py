@@ -16,18 +16,8 @@ def register(subparsers) -> None:
     p.add_argument("-o", "--output", metavar="OUT.glb", help="animated character to write")
     p.add_argument("--csv", metavar="OUT.csv", help="also write the weights as CSV")
     p.add_argument("--preview", metavar="OUT.mp4", help="also write a side-by-side preview video")
-    p.add_argument("--backend", default="color", choices=("color", "mediapipe"),
-                   help="tracker (default color, the paper's); use the one the key expressions were captured "
-                        "with")
-    p.add_argument("--profile", metavar="PROFILE.npz", help="performer profile of the colour tracker")
-    p.add_argument("--model", metavar="TASK", help="MediaPipe face_landmarker.task "
-                   "(default: $FACEPUPPET_FACE_LANDMARKER)")
     p.add_argument("--track", metavar="TRACK.npz", help="reuse a track of MEDIA instead of tracking again")
-    p.add_argument("--gain", action="append", metavar="G", default=[],
-                   help="expression gain: a number for all key-models, NAME=NUMBER for one (repeatable)")
-    p.add_argument("--smoothing", default="on", metavar="on|off|K=V,...",
-                   help="One-Euro smoothing: on (default), off, or e.g. min_cutoff=1.5,beta=2,hold=0.25,ease=0.3")
-    p.add_argument("--no-head", action="store_true", help="do not animate the head rotation")
+    add_mapping_arguments(p)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(run=run,
                    inputs=(("media", "MEDIA"), ("rig", "--rig"), ("profile", "--profile"), ("model", "--model"),
@@ -35,18 +25,40 @@ def register(subparsers) -> None:
                    outputs=(("output", "-o"), ("csv", "--csv"), ("preview", "--preview")))
 
 
-def run(args: argparse.Namespace) -> int:
-    from facepuppet.pipeline.animate import AnimateConfig, animate
+def add_mapping_arguments(p: argparse.ArgumentParser) -> None:
+    """The options that decide how a performance is tracked and mapped (shared with `facepuppet batch`)."""
+    p.add_argument("--backend", default="color", choices=("color", "mediapipe"),
+                   help="tracker (default color, the paper's); use the one the key expressions were captured "
+                        "with")
+    p.add_argument("--profile", metavar="PROFILE.npz", help="performer profile of the colour tracker")
+    p.add_argument("--model", metavar="TASK", help="MediaPipe face_landmarker.task "
+                   "(default: $FACEPUPPET_FACE_LANDMARKER)")
+    p.add_argument("--gain", action="append", metavar="G", default=[],
+                   help="expression gain: a number for all key-models, NAME=NUMBER for one (repeatable)")
+    p.add_argument("--smoothing", default="on", metavar="on|off|K=V,...",
+                   help="One-Euro smoothing: on (default), off, or e.g. min_cutoff=1.5,beta=2,hold=0.25,ease=0.3")
+    p.add_argument("--no-head", action="store_true", help="do not animate the head rotation")
+
+
+def animate_config(args: argparse.Namespace):
+    """The :class:`~facepuppet.pipeline.animate.AnimateConfig` of parsed :func:`add_mapping_arguments`."""
+    from facepuppet.pipeline.animate import AnimateConfig
     from facepuppet.pipeline.gain import parse_gain
     from facepuppet.pipeline.smoothing import parse_smoothing
     from facepuppet.pipeline.tracking import TrackerOptions
 
-    if not (args.output or args.csv or args.preview):
-        raise ValueError("nothing to write: give -o OUT.glb, --csv OUT.csv or --preview OUT.mp4")
-    config = AnimateConfig(
+    return AnimateConfig(
         tracker=TrackerOptions(backend=args.backend, profile=args.profile, model=args.model,
                                progress=False if args.no_progress else None),
         smoothing=parse_smoothing(args.smoothing), gain=parse_gain(args.gain), head_rotation=not args.no_head)
+
+
+def run(args: argparse.Namespace) -> int:
+    from facepuppet.pipeline.animate import animate
+
+    if not (args.output or args.csv or args.preview):
+        raise ValueError("nothing to write: give -o OUT.glb, --csv OUT.csv or --preview OUT.mp4")
+    config = animate_config(args)
     anim = animate(args.media, args.rig, glb=args.output, csv=args.csv, preview=args.preview,
                    track=args.track, config=config, keep_track=False)
     n, ok = len(anim.valid), int(anim.valid.sum())

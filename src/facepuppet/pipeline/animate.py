@@ -19,7 +19,7 @@ import logging
 import os
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -158,7 +158,7 @@ def animate(media: str | os.PathLike | None, rig, *, glb: str | os.PathLike | No
             csv: str | os.PathLike | None = None, preview: str | os.PathLike | None = None,
             track: Track | str | os.PathLike | None = None, config: AnimateConfig | None = None,
             colors: np.ndarray | None = None, keep_track: bool = True,
-            max_frames: int | None = None) -> Animation:
+            max_frames: int | None = None, on_frame: Callable[[int], None] | None = None) -> Animation:
     """Animate a character from a performance video, in one causal pass (:mod:`facepuppet.pipeline.stream`).
 
     Every frame is decoded once, tracked, mapped, smoothed, scaled and handed to every output as it passes;
@@ -183,6 +183,8 @@ def animate(media: str | os.PathLike | None, rig, *, glb: str | os.PathLike | No
         False keeps only the weights.
     max_frames : int, optional
         Stop after this many frames.
+    on_frame : callable, optional
+        Called with each frame's index once every output has taken it (progress of a batch).
 
     Returns
     -------
@@ -240,7 +242,12 @@ def animate(media: str | os.PathLike | None, rig, *, glb: str | os.PathLike | No
         if max_frames is not None and total is not None:
             total = min(total, max_frames)
         with _progress(total, config.tracker, "animate") as bar:
-            summary = run_stream(frames, tracker, mapper, outputs, on_frame=lambda f: bar.update(1),
+            def passed(frame: StreamFrame) -> None:
+                bar.update(1)
+                if on_frame is not None:
+                    on_frame(frame.index)
+
+            summary = run_stream(frames, tracker, mapper, outputs, on_frame=passed,
                                  point_names=None if tracker is None else _point_names())
         label = getattr(source, "path", str(media)) if source is not None else "track"
         if summary.frames == 0:

@@ -1,0 +1,138 @@
+"""Benchmark of `facepuppet batch`: many clips on 1 and 2 local workers and on Ray, beside single `animate` runs.
+
+Setup: a performer profile of the colour tracker and a rig are made from one shared clip (MediaPipe labels,
+``--auto`` key expressions against an ARKit-named character built here from the ICT FaceKit model in
+../shared/assets, never written into the repository); the batch is ``--copies`` copies (default 12) of the
+shared clips, cycled (performer_a, performer_b_exaggerated, performer_c, performer_a, ...).
+
+Timed in the same run, each as its own ``python -m facepuppet`` process (start-up included, as a user runs it):
+
+- the sum of single ``facepuppet animate`` runs, one per clip (the reference);
+- ``facepuppet batch --workers 1``, ``--workers 2`` (local engine) and ``--engine ray --workers 2`` (a local
+  Ray runtime started by the command).
+
+Printed: seconds, frames per second, the speed-up over ``--workers 1`` and over the single runs, and Ray's
+overhead against the local engine with the same workers. Bars: 2 workers >= 1.7x one worker (2-core machine);
+Ray's overhead <= 15 % of the local engine's time. Every batch's outputs are checked byte for byte against the
+single runs'.
+
+Run: ``python benchmarks/bench_batch.py [--copies 12] [--assets PATH] [--no-ray]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+CLIPS = ("performer_a", "performer_b_exaggerated", "performer_c")
+
+
+def make_rig(assets: Path, clip: Path, model: str, folder: Path) -> tuple[Path, Path]:
+    """A colour-tracker profile and a rig (ICT FaceKit character, --auto key expressions) from ``clip``."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from bench_animate import ict_character
+    from facepuppet.pipeline.examples import ExamplesConfig, from_auto
+    from facepuppet.pipeline.profile import train_profile_on_media
+    from facepuppet.pipeline.rig import fit_rig, save_rig
+    from facepuppet.pipeline.tracking import TrackerOptions
+
+    profile = folder / "profile.npz"
+    labels = train_profile_on_media(clip, profile, model=model, progress=False)
+    character = ict_character(assets)
+    options = TrackerOptions(backend="color", profile=str(profile), model=model, progress=False)
+    performer = from_auto(clip, character.names, config=ExamplesConfig(tracker=options), scores_track=labels)
+    rig, _ = fit_rig(performer, character)
+    save_rig(folder / "rig.npz", rig)
+    return profile, folder / "rig.npz"
+
+
+def facepuppet(*args: str) -> float:
+    """Run ``python -m facepuppet ARGS``; seconds of wall time. Exit codes other than 0 stop the benchmark."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src") + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    t0 = time.perf_counter()
+    done = subprocess.run([sys.executable, "-m", "facepuppet", *args], env=env, capture_output=True, text=True)
+    dt = time.perf_counter() - t0
+    if done.returncode != 0:
+        raise SystemExit(f"facepuppet {' '.join(args)} failed ({done.returncode}):\n{done.stderr[-2000:]}")
+    return dt
+
+
+def frame_count(path: Path) -> int:
+    import cv2
+
+    cap = cv2.VideoCapture(str(path))
+    n = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
+    cap.release()
+    return n
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--assets", default=os.environ.get("FACEPUPPET_ASSETS", ROOT.parent / "shared" / "assets"))
+    ap.add_argument("--copies", type=int, default=12, help="clips in the batch (copies of the shared clips)")
+    ap.add_argument("--model", default=None, help="face_landmarker.task (default: assets/models)")
+    ap.add_argument("--no-ray", action="store_true", help="leave the Ray engine out")
+    args = ap.parse_args(argv)
+    assets = Path(args.assets)
+    model = args.model or os.environ.get("FACEPUPPET_FACE_LANDMARKER") or str(assets / "models" /
+                                                                                "face_landmarker.task")
+    tmp = Path(tempfile.mkdtemp(prefix="bench-batch-"))
+    t0 = time.perf_counter()
+    profile, rig = make_rig(assets, assets / "video" / f"{CLIPS[0]}.mp4", model, tmp)
+    print(f"setup (profile and rig from {CLIPS[0]}): {time.perf_counter() - t0:.0f} s")
+
+    clips_dir = tmp / "clips"
+    clips_dir.mkdir()
+    clips = []
+    for k in range(args.copies):
+        src = assets / "video" / f"{CLIPS[k % len(CLIPS)]}.mp4"
+        dst = clips_dir / f"{k:02d}-{src.stem}.mp4"
+        shutil.copyfile(src, dst)
+        clips.append(dst)
+    frames = sum(frame_count(c) for c in clips)
+    common = ["--rig", str(rig), "--profile", str(profile), "--model", model, "--no-progress"]
+
+    single_dir = tmp / "single"
+    single_dir.mkdir()
+    t_single = sum(facepuppet("animate", str(c), "-o", str(single_dir / f"{c.stem}.glb"),
+                              "--csv", str(single_dir / f"{c.stem}.csv"), *common) for c in clips)
+    runs = [("batch --workers 1", ["--workers", "1"]), ("batch --workers 2", ["--workers", "2"])]
+    if not args.no_ray and importlib.util.find_spec("ray") is not None:
+        runs.append(("batch --engine ray --workers 2", ["--engine", "ray", "--workers", "2"]))
+    times = {}
+    for label, extra in runs:
+        out = tmp / label.replace(" ", "_").replace("-", "")
+        times[label] = facepuppet("batch", *map(str, clips), "-o", str(out), "--csv", *common, *extra)
+        for c in clips:
+            for ext in ("glb", "csv"):
+                if (out / f"{c.stem}.{ext}").read_bytes() != (single_dir / f"{c.stem}.{ext}").read_bytes():
+                    raise SystemExit(f"{label}: {c.stem}.{ext} differs from animate's")
+
+    print(f"\n{args.copies} clips, {frames} frames (colour tracker, GLB + CSV); each line one process")
+    print(f"{'run':<34}{'seconds':>9}{'frames/s':>10}{'vs 1 worker':>13}{'vs single':>11}")
+    one = times["batch --workers 1"]
+    print(f"{'sum of single animate runs':<34}{t_single:>9.1f}{frames / t_single:>10.0f}{one / t_single:>12.2f}x"
+          f"{1.0:>10.2f}x")
+    for label, dt in times.items():
+        print(f"{label:<34}{dt:>9.1f}{frames / dt:>10.0f}{one / dt:>12.2f}x{t_single / dt:>10.2f}x")
+    print("outputs of every batch: byte for byte those of the single animate runs")
+    two = times["batch --workers 2"]
+    print(f"bar: 2 workers >= 1.7x 1 worker: {one / two:.2f}x")
+    if "batch --engine ray --workers 2" in times:
+        ray = times["batch --engine ray --workers 2"]
+        print(f"bar: Ray's overhead <= 15 % of the local engine's time: {100 * (ray - two) / two:+.1f} %")
+    print(f"load: {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f} {os.getloadavg()[2]:.2f} "
+          f"(1, 5, 15 min) on {os.cpu_count()} cores")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

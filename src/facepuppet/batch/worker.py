@@ -1,0 +1,188 @@
+"""The work of one clip, the same in every engine: :func:`run_clip` calls :func:`~facepuppet.pipeline.animate.animate`.
+
+A worker process keeps what does not change from clip to clip (:func:`cached_rig`: each rig loaded once, keyed
+by its content hash); the colour tracker's compiled kernels and the shared landmark backend stay loaded in the
+process by themselves. The tracker object follows one face through one take, so every clip gets a fresh one,
+which is what makes a clip's outputs the same bytes as ``facepuppet animate`` writes.
+
+Progress goes out as ``(task index, frames)`` increments through a queue-like object with ``put`` (a
+``multiprocessing`` queue locally, a Ray queue on a cluster), at most every :data:`PROGRESS_EVERY_S`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import logging
+import os
+import signal
+import sys
+import time
+from dataclasses import dataclass
+
+from facepuppet._util.interrupt import Interrupted, handle_signals
+from facepuppet.pipeline.animate import AnimateConfig
+
+__all__ = ["ClipTask", "ClipResult", "run_clip", "run_guarded", "cached_rig", "guard_worker", "one_line",
+           "PROGRESS_EVERY_S"]
+
+log = logging.getLogger(__name__)
+
+#: Seconds between two progress messages of a worker.
+PROGRESS_EVERY_S = 0.25
+
+#: prctl(2) option: the signal this process gets when its parent dies (linux/prctl.h).
+_PR_SET_PDEATHSIG = 1
+
+#: Rigs loaded in this process: rig sha256 -> Rig.
+_RIGS: dict[str, object] = {}
+
+
+@dataclass(frozen=True, kw_only=True)
+class ClipTask:
+    """What a worker needs for one clip.
+
+    Attributes
+    ----------
+    index : int
+        The clip's place in the batch (progress messages and results carry it).
+    clip, rig : str
+        Paths every worker sees.
+    rig_sha256 : str
+        The rig's content hash (key of the worker's rig cache).
+    outputs : dict of str -> str
+        ``glb``, and ``csv`` / ``preview`` when asked.
+    config : AnimateConfig
+    """
+
+    index: int
+    clip: str
+    rig: str
+    rig_sha256: str
+    outputs: dict
+    config: AnimateConfig
+
+
+@dataclass(frozen=True, kw_only=True)
+class ClipResult:
+    """How a clip went: ``ok``, frames, frames with a face, seconds, and the one-line error when not ok."""
+
+    index: int
+    ok: bool
+    frames: int = 0
+    frames_with_face: int = 0
+    seconds: float = 0.0
+    error: str = ""
+
+
+def cached_rig(path: str, sha256: str):
+    """The rig of ``path`` (content hash ``sha256``), loaded once per process."""
+    rig = _RIGS.get(sha256)
+    if rig is None:
+        from facepuppet.pipeline.rig import load_rig
+
+        rig = _RIGS[sha256] = load_rig(path)
+    return rig
+
+
+class _Progress:
+    """Frames counted by ``animate``'s ``on_frame`` hook, sent on in batches."""
+
+    def __init__(self, queue, index: int) -> None:
+        self.queue, self.index = queue, index
+        self.sent = self.count = 0
+        self.last = time.monotonic()
+
+    def __call__(self, _frame_index: int) -> None:
+        self.count += 1
+        now = time.monotonic()
+        if now - self.last >= PROGRESS_EVERY_S:
+            self.flush()
+            self.last = now
+
+    def flush(self) -> None:
+        if self.queue is not None and self.count > self.sent:
+            with contextlib.suppress(Exception):    # progress is a courtesy: a full or gone queue stops no clip
+                self.queue.put((self.index, self.count - self.sent))
+            self.sent = self.count
+
+
+def one_line(error: BaseException) -> str:
+    """An exception as one line: its message, with the type's name for errors the CLI does not expect."""
+    from facepuppet.errors import FacepuppetError
+
+    text = " ".join(str(error).split()) or type(error).__name__
+    if not isinstance(error, (FacepuppetError, ValueError, OSError)):
+        text = f"{type(error).__name__}: {text}"
+    return text
+
+
+def run_clip(task: ClipTask, queue=None, rig=None) -> ClipResult:
+    """Animate one clip into its outputs (all or none); never raises for a failing clip.
+
+    Parameters
+    ----------
+    task : ClipTask
+    queue : object with ``put``, optional
+        Where progress goes.
+    rig : Rig, optional
+        The rig itself (shipped by the engine); loaded from ``task.rig`` through the cache when None.
+    """
+    from facepuppet.pipeline.animate import animate
+
+    t0 = time.perf_counter()
+    progress = _Progress(queue, task.index)
+    try:
+        if rig is None:
+            rig = cached_rig(task.rig, task.rig_sha256)
+        config = dataclasses.replace(task.config, tracker=dataclasses.replace(task.config.tracker, progress=False))
+        out = task.outputs
+        anim = animate(task.clip, rig, glb=out.get("glb"), csv=out.get("csv"), preview=out.get("preview"),
+                       config=config, keep_track=False, on_frame=progress)
+    except Exception as e:      # noqa: BLE001 - a failing clip is a row of the report, the batch goes on
+        if isinstance(e.__cause__, Interrupted) or isinstance(e.__context__, Interrupted):
+            raise           # a stop raised inside compiled code's C wrapper (SystemError): not the clip's fault
+        progress.flush()
+        log.debug("clip %s failed", task.clip, exc_info=True)
+        return ClipResult(index=task.index, ok=False, frames=progress.count, seconds=time.perf_counter() - t0,
+                          error=f"{task.clip}: {one_line(e)}" if task.clip not in str(e) else one_line(e))
+    progress.flush()
+    return ClipResult(index=task.index, ok=True, frames=int(len(anim.valid)), frames_with_face=int(anim.valid.sum()),
+                      seconds=time.perf_counter() - t0)
+
+
+def _die_by_sigterm() -> None:
+    """End this process at once, by SIGTERM's default action (no clean-up of the worker loop)."""
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    os.kill(os.getpid(), signal.SIGTERM)
+    raise SystemExit(128 + signal.SIGTERM)      # not reached unless the signal is blocked
+
+
+def guard_worker() -> None:
+    """Make this worker process end cleanly with the batch.
+
+    SIGTERM between clips ends the process; during a clip (:func:`run_guarded`) it stops the clip at the next
+    frame (:mod:`facepuppet._util.interrupt`), whose temporary outputs are removed on the way out. On Linux the
+    process also gets SIGTERM when its parent dies, however it died. Ctrl-C is left to the batch, which ends
+    its workers.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if sys.platform.startswith("linux"):
+        import ctypes
+        import multiprocessing
+
+        with contextlib.suppress(OSError, AttributeError):
+            ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+        parent = multiprocessing.parent_process()
+        if parent is not None and os.getppid() != parent.pid:      # it died before the signal was asked for
+            _die_by_sigterm()
+
+
+def run_guarded(task: ClipTask, queue=None, rig=None) -> ClipResult:
+    """:func:`run_clip`, ending the process once a SIGTERM has stopped and unwound the clip."""
+    try:
+        with handle_signals():
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+            return run_clip(task, queue, rig)
+    except Interrupted:
+        _die_by_sigterm()
