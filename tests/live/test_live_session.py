@@ -139,24 +139,48 @@ def test_a_signal_ends_the_session_and_finishes_the_recording(demo, tmp_path, si
                                                          str(tmp_path / "r.csv"), "--stats",
                                                          str(tmp_path / "s.json"))]
     proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    started = threading.Event()
+    err_lines: list[str] = []
+
+    def read_stderr():
+        for line in proc.stderr:
+            err_lines.append(line)
+            if line.startswith("live: running"):
+                started.set()
+
+    reader = threading.Thread(target=read_stderr, daemon=True)
+    reader.start()
     try:
-        deadline = time.time() + 60                   # the session has started once its recording is open
-        while proc.poll() is None and time.time() < deadline and not _started(tmp_path):
-            time.sleep(0.1)
-        time.sleep(1.0)                               # a second of the take (the video lasts five)
+        assert started.wait(120), "".join(err_lines)          # the first frame went through
+        time.sleep(0.5)                                          # half a second of the take (it lasts five)
         proc.send_signal(sig)
-        out, err = proc.communicate(timeout=60)
+        out, _ = proc.communicate(timeout=60)
     finally:
         proc.kill()
-    assert proc.returncode == 0, err
+    reader.join(5)
+    assert proc.returncode == 0, "".join(err_lines)
     rows = sum(1 for _ in open(tmp_path / "r.csv")) - 1
     stats = json.loads((tmp_path / "s.json").read_text())
     assert 0 < rows < 150 and stats["frames"] == rows      # stopped early, every frame taken is recorded
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.csv", "r.glb", "s.json"]   # no temporary left
+    assert "wrote" in out
 
 
-def _started(folder: Path) -> bool:
-    return any(p.name.startswith(".r.") for p in folder.iterdir())
+def test_a_session_stopped_before_its_first_frame_writes_nothing(demo, tmp_path, monkeypatch):
+    import facepuppet.live.session as session
+    from facepuppet.live.session import LiveConfig, run_live
+
+    class StoppedInWarmup(LiveSource):
+        """Ctrl+C while the tracker warms up on the first frame."""
+
+        def __init__(self, *args, **kwargs):
+            kwargs["warmup"] = lambda rgb: self.stop()
+            super().__init__(*args, **kwargs)
+
+    monkeypatch.setattr(session, "LiveSource", StoppedInWarmup)
+    result = run_live(demo.files["performance.mp4"], demo.files["rig.npz"],
+                      config=LiveConfig(status=False, keys=False), record=tmp_path / "r.glb", csv=tmp_path / "r.csv")
+    assert result.frames == 0 and list(tmp_path.iterdir()) == []
 
 
 def test_missing_rig_is_one_line(tmp_path, capsys):

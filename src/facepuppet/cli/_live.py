@@ -84,7 +84,11 @@ def run(args: argparse.Namespace) -> int:
 
             senders.append(stack.enter_context(contextlib.closing(LiveLinkSender(rig.names, *livelink))))
         result = run_live(args.source, rig, config=config, record=args.record, csv=args.csv, stats=args.stats,
-                          senders=senders)
+                          senders=senders, on_start=lambda: print("live: running (q or Ctrl+C stops)",
+                                                                   file=sys.stderr, flush=True))
+    if result.frames == 0:
+        print("live: stopped before the first frame; nothing written")
+        return 0
     s = result.stats
     wrote = ", ".join(x for x in (args.record, args.csv, args.stats) if x)
     print(f"live: {result.frames} frames ({result.with_face} with a face), {result.dropped} dropped; "

@@ -208,7 +208,8 @@ def _terminal_keys(enabled: bool, on_key):
 
 def run_live(source: str | os.PathLike, rig, *, config: LiveConfig | None = None,
              record: str | os.PathLike | None = None, csv: str | os.PathLike | None = None,
-             stats: str | os.PathLike | None = None, senders: Sequence = (), on_rezero=None) -> LiveResult:
+             stats: str | os.PathLike | None = None, senders: Sequence = (), on_rezero=None,
+             on_start=None) -> LiveResult:
     """Run a live session (see the module notes).
 
     Parameters
@@ -229,14 +230,15 @@ def run_live(source: str | os.PathLike, rig, *, config: LiveConfig | None = None
         viewer's button) can ask for the session's neutral re-zero. Not closed here.
     on_rezero : callable, optional
         Called after a re-zero was asked for (tests, logging).
+    on_start : callable, optional
+        Called once, when the first frame has gone through the chain.
 
     Returns
     -------
     LiveResult
+        A session stopped before its first frame returns ``frames == 0`` and writes nothing.
     """
-    from facepuppet.io.frames import open_media
-    from facepuppet.pipeline.outputs import CsvOutput, GlbOutput
-    from facepuppet.pipeline.tracking import TrackerOptions, make_tracker_for
+    from facepuppet.pipeline.tracking import TrackerOptions
 
     config = config or LiveConfig()
     tracker_options = config.tracker or TrackerOptions()
@@ -251,6 +253,28 @@ def run_live(source: str | os.PathLike, rig, *, config: LiveConfig | None = None
         mapper.request_rezero()
         if on_rezero is not None:
             on_rezero()
+
+    try:
+        return _session(source, rig, rig_label, mapper, tracker_options, config, record, csv, stats, senders,
+                        rezero, on_start)
+    except _StoppedBeforeStart as e:
+        log.warning("%s: stopped before the first frame; nothing recorded", source)
+        return e.result
+
+
+class _StoppedBeforeStart(Exception):
+    """The session was stopped before any frame went through (its outputs are then dropped)."""
+
+    def __init__(self, result: LiveResult) -> None:
+        super().__init__("stopped before the first frame")
+        self.result = result
+
+
+def _session(source, rig, rig_label, mapper, tracker_options, config, record, csv, stats, senders, rezero,
+             on_start) -> LiveResult:
+    from facepuppet.io.frames import open_media
+    from facepuppet.pipeline.outputs import CsvOutput, GlbOutput
+    from facepuppet.pipeline.tracking import make_tracker_for
 
     with contextlib.ExitStack() as stack:
         media = stack.enter_context(open_media(source)) if isinstance(source, (str, os.PathLike)) else source
@@ -277,10 +301,12 @@ def run_live(source: str | os.PathLike, rig, *, config: LiveConfig | None = None
         latency = LatencyStats()
 
         def after_frame() -> None:
-            if sending.neutral_requested():
+            if latency.frames == 1 and on_start is not None:
+                on_start()
+            if senders and sending.neutral_requested():
                 rezero()
 
-        status = _Status(latency, live, config.status, after_frame if senders else None)
+        status = _Status(latency, live, config.status, after_frame)
         stack.callback(status.close)
 
         def on_key(ch: str) -> None:
@@ -292,7 +318,14 @@ def run_live(source: str | os.PathLike, rig, *, config: LiveConfig | None = None
         from facepuppet.capture.curves import POINT_NAMES
 
         with _stop_on_signals(live), _terminal_keys(config.keys, on_key):
-            summary = run_stream(live, tracker, mapper, outputs, on_frame=status, point_names=POINT_NAMES)
+            try:
+                summary = run_stream(live, tracker, mapper, outputs, on_frame=status, point_names=POINT_NAMES)
+            except FacepuppetError:
+                if live.stopped and latency.frames == 0 and not live.error:
+                    raise _StoppedBeforeStart(LiveResult(0, 0, live.dropped, 0.0, latency.summary())) from None
+                raise
+            if live.stopped and summary.frames == 0 and not live.error:
+                raise _StoppedBeforeStart(LiveResult(0, 0, live.dropped, 0.0, latency.summary()))
         if live.error:
             raise FacepuppetError(live.error)
         if summary.frames == 0:

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from facepuppet._util.atomic import atomic_path
+from facepuppet.errors import FacepuppetError
 from facepuppet.pipeline.stream import StreamFrame
 
 __all__ = ["RowSpool", "GlbOutput", "CsvOutput", "PreviewOutput"]
@@ -115,6 +116,8 @@ class GlbOutput:
     def finish(self) -> None:
         from facepuppet.export.gltf_animation import write_animated_glb
 
+        if self._rows.spool.rows == 0:
+            raise FacepuppetError(f"{self.path}: no frames to write")
         times, _, weights, rotation = self._rows.read()
         write_animated_glb(self._tmp, self.rig.character, self.rig.character_weights(weights), self.fps,
                            times=times - times[0] if len(times) else times,
@@ -139,6 +142,8 @@ class CsvOutput:
     def finish(self) -> None:
         from facepuppet.export.csv import write_weights_csv
 
+        if self._rows.spool.rows == 0:
+            raise FacepuppetError(f"{self.path}: no frames to write")
         times, _, weights, rotation = self._rows.read()
         write_weights_csv(self._tmp, weights, self.rig.names, self.fps,
                           times=times - times[0] if len(times) else times,
