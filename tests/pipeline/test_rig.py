@@ -103,7 +103,7 @@ def test_round_trip(tmp_path, rng, stand_in):
     for key, value in rig.mapper.a.items():
         np.testing.assert_array_equal(back.mapper.a[key], value)
     with np.load(tmp_path / "rig.npz", allow_pickle=False) as raw:
-        assert str(raw["format"]) == RIG_FORMAT and int(raw["version"]) == 1
+        assert str(raw["format"]) == RIG_FORMAT and int(raw["version"]) == RIG_VERSION
 
 
 def _rewrite(src, dst, drop=(), **changes):

@@ -87,7 +87,8 @@ def _folder(path) -> Path:
 
 
 class GlbOutput:
-    """The character with its key-models as morph targets and one animation of the stream's weights.
+    """The character with one animation of the stream's weights: its own scene whole when the rig keeps it
+    (``Character.source``), else the bare mesh with its key-models as morph targets.
 
     Parameters
     ----------
@@ -116,9 +117,18 @@ class GlbOutput:
         from facepuppet.export.gltf_animation import write_animated_glb
 
         times, _, weights, rotation = self._rows.read()
-        write_animated_glb(self._tmp, self.rig.character, self.rig.character_weights(weights), self.fps,
-                           times=times - times[0] if len(times) else times,
-                           head_rotation=rotation if self.head_rotation else None)
+        times = times - times[0] if len(times) else times
+        rotation = rotation if self.head_rotation else None
+        character = self.rig.character
+        if character.source is not None:  # the character's own scene, whole, with the animation added
+            from facepuppet.export.scene_animation import write_scene_animation
+
+            neutral = np.asarray(character.neutral)
+            write_scene_animation(self._tmp, character.source, self.rig.names, weights, self.fps, times=times,
+                                  head_rotation=rotation, pivot=(neutral.min(axis=0) + neutral.max(axis=0)) / 2)
+            return
+        write_animated_glb(self._tmp, character, self.rig.character_weights(weights), self.fps,
+                           times=times, head_rotation=rotation)
 
 
 class CsvOutput:
