@@ -253,12 +253,11 @@ def _head_channels(doc: dict, faces: list[int], rotation: np.ndarray, pivot: np.
     depth = 0
     while all(len(c) > depth + 1 for c in chains) and len({c[depth] for c in chains}) == 1:
         depth += 1
-    if len({c[0] for c in chains}) > 1:
-        parent, children = None, list(dict.fromkeys(c[0] for c in chains))
-    elif any(len(c) == depth + 1 for c in chains) or len({c[depth] for c in chains}) == 1:
-        parent, children = (chains[0][depth - 1] if depth else None), [chains[0][depth]]
-    else:
-        parent, children = chains[0][depth - 1], list(dict.fromkeys(c[depth] for c in chains))
+    parent = chains[0][depth - 1] if depth else None  # the lowest common ancestor (None: the scene)
+    children = list(dict.fromkeys(c[depth] for c in chains))
+    siblings = nodes[parent].get("children", []) if parent is not None else \
+        [r for sc in doc.get("scenes") or [] for r in sc.get("nodes") or []]
+    children.sort(key=lambda c: siblings.index(c) if c in siblings else len(siblings))
     head = len(nodes)
     nodes.append({"name": "facepuppet_head", "children": children})
     if parent is None:
