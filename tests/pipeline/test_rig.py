@@ -14,7 +14,7 @@ from facepuppet.cli import main
 from facepuppet.errors import FacepuppetError
 from facepuppet.io.character import Character, save_character
 from facepuppet.io.performer import Performer, save_performer
-from facepuppet.pipeline.rig import RIG_FORMAT, Rig, fit_rig, load_rig, pair_by_name, save_rig
+from facepuppet.pipeline.rig import RIG_FORMAT, RIG_VERSION, Rig, fit_rig, load_rig, pair_by_name, save_rig
 
 
 class StandIn:
