@@ -118,7 +118,7 @@ def skinned_character(rng, *, head_joint_name: str = "mixamorig:Head", skinned: 
                    defaults=HEAD_DEFAULTS)
     m_teeth = _mesh(b, *teeth, TEETH_NAMES, material=1, rng=rng)
     m_eyes = _mesh(b, *eyes, EYES_NAMES, material=1, rng=rng)
-    for m, name in zip((m_head, m_teeth, m_eyes), ("head", "teeth", "eyes")):
+    for m, name in zip((m_head, m_teeth, m_eyes), ("head", "teeth", "eyes"), strict=True):
         b.doc["meshes"][m]["name"] = name
     q = [0.0, np.sin(0.1), 0.0, np.cos(0.1)]
     b.doc["nodes"] = [

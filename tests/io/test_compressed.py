@@ -77,8 +77,8 @@ def draco_copy(glb: bytes) -> bytes:
         for prim in mesh["primitives"]:
             a = prim["attributes"]
             enc = draco.encode(values(a["POSITION"], np.float32, 3).astype(np.float64),
-                               values(prim["indices"], np.uint16, 1).reshape(-1, 3).astype(np.int64), quantization_bits=30,
-                               preserve_order=True, normals=values(a["NORMAL"], np.float32, 3).astype(np.float64),
+                               values(prim["indices"], np.uint16, 1).reshape(-1, 3).astype(np.int64),
+                               quantization_bits=30, preserve_order=True, normals=values(a["NORMAL"], np.float32, 3).astype(np.float64),
                                tex_coord=values(a["TEXCOORD_0"], np.float32, 2).astype(np.float64))
             ids = {x["attribute_type"]: x["unique_id"] for x in draco.decode(enc).attributes}
             extra.extend(b"\0" * (-len(extra) % 4))
@@ -100,7 +100,7 @@ def _canonical(faces: np.ndarray) -> np.ndarray:
     """Each triangle rotated to start at its smallest index (the meshopt index codec rotates triangles)."""
     faces = np.asarray(faces)
     shift = np.argmin(faces, axis=1)
-    return np.stack([np.roll(f, -k) for f, k in zip(faces, shift)])
+    return np.stack([np.roll(f, -k) for f, k in zip(faces, shift, strict=True)])
 
 
 def _same_rig(tmp_path, rng, compressed: bytes, plain: bytes, atol: float):

@@ -32,7 +32,8 @@ def register(subparsers) -> None:
                      help="capture live from camera N, as MEDIA camera:N does (camera:VIDEO: a video standing "
                           "in for the camera)")
     p.add_argument("--character", metavar="CHARACTER",
-                   help="the character (.glb or OBJ folder) whose key-models to capture key expressions for")
+                   help="the character (.glb / .vrm, OBJ folder, or built-in: toy) whose key-models to capture "
+                        "key expressions for")
     p.add_argument("--backend", default="color", choices=("color", "mediapipe"),
                    help="tracker making the feature points; use the one you will animate with (default color)")
     p.add_argument("--profile", metavar="PROFILE.npz", help="performer profile of the colour tracker")
@@ -75,9 +76,9 @@ def run(args: argparse.Namespace) -> int:
         window=args.window)
     character = None
     if args.character:
-        from facepuppet.io.character import load_character
+        from facepuppet.characters import load_character_arg
 
-        character = load_character(args.character)
+        character = load_character_arg(args.character)
     track = None
     if args.track:
         from facepuppet.io.track import load_track

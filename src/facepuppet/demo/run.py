@@ -42,7 +42,7 @@ from __future__ import annotations
 import logging
 import os
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -75,7 +75,7 @@ FILES: dict[str, str] = {
     "calibration-marks.csv": "the marks file: frame of each held expression, span of the head motion",
     "performer-profile.npz": "the colour tracker's performer profile trained on the calibration video",
     "performer.npz": "the performer's key expressions (facepuppet calibrate)",
-    "toy.glb": "the Toy character with its 13 key-models as morph targets",
+    "toy.glb": "the Toy character (coloured, with normals) with its 13 key-models as morph targets",
     "rig.npz": "the fitted rig (facepuppet rig)",
     "performance.mp4": "the input video: the performer acting, with head motion",
     "track.npz": "the track of the performance",
@@ -257,7 +257,7 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
     from facepuppet.demo.performer import render_performer
     from facepuppet.demo.script import calibration_script, performance_script
     from facepuppet.demo.toy import toy_character, toy_colors
-    from facepuppet.io.gltf import write_glb
+    from facepuppet.io.gltf import colored_glb
     from facepuppet.io.performer import load_performer, save_performer
     from facepuppet.io.track import save_track
     from facepuppet.pipeline.animate import AnimateConfig, animate
@@ -340,12 +340,16 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
     cal_track = track_video(files["calibration.mp4"], cal_curves)
     t = step("track", t)
     toy = toy_character()
+    toy = replace(toy, source=colored_glb(toy, toy_colors()))  # materials: the animated GLB is the Toy's scene
     examples = from_marks(files["calibration.mp4"], files["calibration-marks.csv"], names=toy.names,
                           config=ExamplesConfig(), track=cal_track)
     save_performer(files["performer.npz"], examples)
     rig, _pairing = fit_rig(load_performer(files["performer.npz"]), toy)
     save_rig(files["rig.npz"], rig)
-    write_glb(files["toy.glb"], toy)
+    from facepuppet._util.atomic import atomic_path
+
+    with atomic_path(files["toy.glb"]) as tmp:
+        tmp.write_bytes(toy.source)
     t = step("calibrate + rig", t)
 
     track = track_video(files["performance.mp4"], perf_curves)

@@ -28,7 +28,7 @@ from facepuppet.io.glb import ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, GltfBuilder, v
 from facepuppet.io.keymodels import keymodel_binds, morph_names
 from facepuppet.io.scene import load_scene
 
-__all__ = ["read_gltf", "write_glb", "add_character", "quaternion_matrix"]
+__all__ = ["read_gltf", "write_glb", "add_character", "colored_glb", "quaternion_matrix"]
 
 log = logging.getLogger(__name__)
 
@@ -92,7 +92,7 @@ def _with_expressions(doc: dict, meshes: list[int], parts: list) -> list:
     if not expressions:
         return parts
     out = []
-    for m, (pos, d, names, faces) in zip(meshes, parts):
+    for m, (pos, d, names, faces) in zip(meshes, parts, strict=True):
         extra = np.zeros((len(expressions),) + pos.shape)
         for e, binds in enumerate(expressions.values()):
             for mesh, j, factor in binds:
@@ -149,6 +149,25 @@ def add_character(builder: GltfBuilder, character: Character, *, normals: bool =
     else:
         del primitive["targets"]
     return builder.add_node({"name": character.name, "mesh": builder.add_mesh(mesh)})
+
+
+def colored_glb(character: Character, colors: np.ndarray) -> bytes:
+    """GLB bytes of ``character`` with normals, vertex colours ``colors`` (V, 3) in [0, 1] (``COLOR_0``) under
+    one white, rough, non-metallic material, so a viewer shows the colours; morph targets as in
+    :func:`write_glb`."""
+    builder = GltfBuilder()
+    node = add_character(builder, character, normals=True)
+    prim = builder.json["meshes"][builder.json["nodes"][node]["mesh"]]["primitives"][0]
+    colors = np.asarray(colors, dtype=np.float32)
+    if colors.shape != (len(character.neutral), 3):
+        raise ValueError(f"colors must have shape ({len(character.neutral)}, 3), got {colors.shape}")
+    prim["attributes"]["COLOR_0"] = builder.add_accessor(np.clip(colors, 0, 1), target=ARRAY_BUFFER)
+    builder.json["materials"] = [{"name": f"{character.name} (vertex colours)", "pbrMetallicRoughness": {
+        "baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.7}}]
+    prim["material"] = 0
+    builder.json["scenes"] = [{"name": character.name, "nodes": [node]}]
+    builder.json["scene"] = 0
+    return builder.glb_bytes()
 
 
 # --------------------------------------------------------------------------------------------------- reading

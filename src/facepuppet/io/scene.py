@@ -136,7 +136,7 @@ def load_scene(path: str | os.PathLike) -> Scene:
             del image["uri"]
             image["bufferView"], image["mimeType"] = len(doc["bufferViews"]) - 1, mime
     blob = bytearray()
-    for view, chunk in zip(doc.get("bufferViews") or [], views):
+    for view, chunk in zip(doc.get("bufferViews") or [], views, strict=True):
         blob.extend(b"\0" * (-len(blob) % _ALIGN))
         view["buffer"], view["byteOffset"], view["byteLength"] = 0, len(blob), len(chunk)
         blob.extend(chunk)
