@@ -78,7 +78,8 @@ def draco_copy(glb: bytes) -> bytes:
             a = prim["attributes"]
             enc = draco.encode(values(a["POSITION"], np.float32, 3).astype(np.float64),
                                values(prim["indices"], np.uint16, 1).reshape(-1, 3).astype(np.int64),
-                               quantization_bits=30, preserve_order=True, normals=values(a["NORMAL"], np.float32, 3).astype(np.float64),
+                               quantization_bits=30, preserve_order=True,
+                               normals=values(a["NORMAL"], np.float32, 3).astype(np.float64),
                                tex_coord=values(a["TEXCOORD_0"], np.float32, 2).astype(np.float64))
             ids = {x["attribute_type"]: x["unique_id"] for x in draco.decode(enc).attributes}
             extra.extend(b"\0" * (-len(extra) % 4))
