@@ -64,6 +64,29 @@ def _camera(args: argparse.Namespace) -> str | None:
     return None
 
 
+def _check_auto(args: argparse.Namespace, character, scores) -> None:
+    """Everything ``--auto`` lacks, named in one error: the character, and MediaPipe's package and model when
+    no track brings the blendshape scores."""
+    import importlib.util
+    import os
+    from pathlib import Path
+
+    missing = []
+    if character is None:
+        missing.append("--character (its ARKit key-model names say what to look for)")
+    if scores is None:
+        model = args.model or os.environ.get("FACEPUPPET_FACE_LANDMARKER")
+        if not model:
+            missing.append("--model face_landmarker.task (or $FACEPUPPET_FACE_LANDMARKER): MediaPipe's blendshape "
+                           "scores pick the frames")
+        elif not Path(model).expanduser().is_file():
+            missing.append(f"the face landmarker model {model} (not found)")
+        if importlib.util.find_spec("mediapipe") is None:
+            missing.append("the mediapipe package: pip install 'facepuppet[mediapipe]'")
+    if missing:
+        raise ValueError("--auto needs " + "; and ".join(missing))
+
+
 def run(args: argparse.Namespace) -> int:
     from facepuppet.io.performer import save_performer
     from facepuppet.pipeline import examples
@@ -106,9 +129,8 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError("MEDIA (the video of the key expressions) is required with --marks and --auto")
         source = args.media
         if args.auto:
-            if character is None:
-                raise ValueError("--auto needs --character (its ARKit key-model names say what to look for)")
             scores = track if track is not None and track.extras and "blendshapes" in track.extras else labels
+            _check_auto(args, character, scores)
             result = examples.from_auto(args.media, character.names, config=config, scores_track=scores,
                                         track=track if track is not None and track.backend == args.backend
                                         else None)

@@ -235,9 +235,12 @@ def run_live(source: str | os.PathLike, rig, *, config: LiveConfig | None = None
     LiveResult
     """
     from facepuppet.io.frames import open_media
-    from facepuppet.pipeline.outputs import CsvOutput, GlbOutput
+    from facepuppet.pipeline.outputs import CsvOutput, GlbOutput, check_suffix
     from facepuppet.pipeline.tracking import TrackerOptions, make_tracker_for
 
+    for out, kind in ((record, "animated character"), (csv, "weights CSV")):
+        if out is not None:
+            check_suffix(out, kind)  # before the camera opens
     config = config or LiveConfig()
     tracker_options = config.tracker or TrackerOptions()
     rig_label = "rig"

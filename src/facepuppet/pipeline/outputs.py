@@ -19,7 +19,20 @@ import numpy as np
 from facepuppet._util.atomic import atomic_path
 from facepuppet.pipeline.stream import StreamFrame
 
-__all__ = ["RowSpool", "GlbOutput", "CsvOutput", "PreviewOutput"]
+__all__ = ["RowSpool", "GlbOutput", "CsvOutput", "PreviewOutput", "OUTPUT_SUFFIXES", "check_suffix"]
+
+#: File name suffixes each output writes (lower case): the GLB container (.vrm is one), .gltf JSON with an
+#: embedded buffer, CSV text, MPEG-4 video.
+OUTPUT_SUFFIXES: dict[str, tuple[str, ...]] = {"animated character": (".glb", ".gltf", ".vrm"),
+                                               "weights CSV": (".csv",), "preview video": (".mp4", ".m4v")}
+
+
+def check_suffix(path: str | os.PathLike, kind: str) -> None:
+    """Raise ValueError naming ``path`` when its suffix is not one the output ``kind`` writes."""
+    allowed = OUTPUT_SUFFIXES[kind]
+    if Path(path).suffix.lower() not in allowed:
+        raise ValueError(f"{path}: a {kind} is written as {' or '.join(allowed)}, not "
+                         f"{Path(path).suffix or 'a name without suffix'}")
 
 
 class RowSpool:
@@ -106,8 +119,9 @@ class GlbOutput:
 
     def __init__(self, path, rig, stack: contextlib.ExitStack, *, head_rotation: bool = True,
                  fps: float = 30.0) -> None:
+        check_suffix(path, "animated character")
         self.path, self.rig, self.head_rotation, self.fps = path, rig, head_rotation, float(fps)
-        self._tmp = _stage(stack, path, suffix=".glb")
+        self._tmp = _stage(stack, path, suffix=Path(path).suffix.lower())
         self._rows = _Rows(len(rig.names), _folder(path), stack)
 
     def write(self, frame: StreamFrame) -> None:
@@ -139,6 +153,7 @@ class CsvOutput:
 
     def __init__(self, path, rig, stack: contextlib.ExitStack, *, head_rotation: bool = True,
                  fps: float = 30.0) -> None:
+        check_suffix(path, "weights CSV")
         self.path, self.rig, self.head_rotation, self.fps = path, rig, head_rotation, float(fps)
         self._tmp = _stage(stack, path, suffix=".csv")
         self._rows = _Rows(len(rig.names), _folder(path), stack)
@@ -177,6 +192,7 @@ class PreviewOutput:
                  colors: np.ndarray | None = None, head_rotation: bool = True) -> None:
         from facepuppet.export.render import Camera
 
+        check_suffix(path, "preview video")
         self.path, self.fps, self.colors, self.head_rotation = path, float(fps), colors, head_rotation
         self._stack = stack
         character = rig.character

@@ -1,0 +1,66 @@
+"""CLI friction: output suffixes are checked before any work, ``calibrate --auto`` names everything it lacks at
+once, built-in characters by name, and ``rig`` on a whole-scene character."""
+
+from __future__ import annotations
+
+import importlib.util
+
+import numpy as np
+import pytest
+
+from facepuppet.cli import main
+from facepuppet.io.performer import Performer, save_performer
+from facepuppet.io.scene import parse_glb
+from facepuppet.pipeline.rig import load_rig
+
+
+@pytest.mark.parametrize("flag,name,kind", [("-o", "y.fbx", "animated character"),
+                                            ("--preview", "y.avi", "preview video"),
+                                            ("--csv", "y.txt", "weights CSV")])
+def test_animate_checks_output_suffixes_first(tmp_path, capsys, flag, name, kind):
+    code = main(["animate", str(tmp_path / "missing.mp4"), "--rig", str(tmp_path / "missing.npz"),
+                 flag, str(tmp_path / name)])
+    err = capsys.readouterr().err.strip()
+    assert code != 0 and len(err.splitlines()) == 1
+    assert name in err and kind in err and "Traceback" not in err
+    assert not (tmp_path / name).exists()
+
+
+def test_calibrate_auto_names_everything_missing(tmp_path, capsys, monkeypatch):
+    monkeypatch.delenv("FACEPUPPET_FACE_LANDMARKER", raising=False)
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec", lambda n, *a: None if n == "mediapipe" else real(n, *a))
+    code = main(["calibrate", str(tmp_path / "clip.mp4"), "--auto", "-o", str(tmp_path / "p.npz")])
+    err = capsys.readouterr().err.strip()
+    assert code != 0 and len(err.splitlines()) == 1
+    assert "--character" in err and "--model" in err and "pip install 'facepuppet[mediapipe]'" in err
+
+
+def test_unknown_character_name_lists_the_built_in_ones(tmp_path, capsys):
+    save_performer(tmp_path / "p.npz", Performer(np.zeros((4, 2)), np.ones((1, 4, 2)), ("jawOpen",)))
+    code = main(["rig", "--performer", str(tmp_path / "p.npz"), "--character", "robot", "-o",
+                 str(tmp_path / "rig.npz")])
+    err = capsys.readouterr().err
+    assert code != 0 and "robot: no such file or folder" in err and "toy" in err
+
+
+def test_rig_with_the_built_in_toy_keeps_its_coloured_scene(tmp_path, capsys, rng):
+    from facepuppet.demo.toy import toy_character
+
+    names = toy_character().names[:4]
+    base = rng.normal(size=(6, 2))
+    save_performer(tmp_path / "p.npz", Performer(base, base[None] + rng.normal(size=(4, 6, 2)) * 0.1, names))
+    assert main(["rig", "--performer", str(tmp_path / "p.npz"), "--character", "toy", "-o",
+                 str(tmp_path / "rig.npz")]) == 0
+    assert "rig:" in capsys.readouterr().out
+    rig = load_rig(tmp_path / "rig.npz")
+    doc, blob = parse_glb(rig.character.source)
+    prim = doc["meshes"][0]["primitives"][0]
+    assert {"POSITION", "NORMAL", "COLOR_0"} <= set(prim["attributes"]) and prim["material"] == 0
+    # the Toy's colours: green skin, red lips (demo/toy.py PARTS) as COLOR_0
+    acc = doc["accessors"][prim["attributes"]["COLOR_0"]]
+    view = doc["bufferViews"][acc["bufferView"]]
+    colors = np.frombuffer(blob, np.float32, acc["count"] * 3, view["byteOffset"]).reshape(-1, 3)
+    from facepuppet.demo.toy import toy_colors
+
+    np.testing.assert_allclose(colors, toy_colors(), atol=1e-6)
