@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import importlib.metadata as metadata
 import re
-import tomllib
 from pathlib import Path
 
 import cv2
+import tomllib
 
 PYPROJECT = Path(__file__).resolve().parents[1] / "pyproject.toml"
 
