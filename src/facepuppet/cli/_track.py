@@ -77,4 +77,7 @@ def run(args: argparse.Namespace) -> int:
                             on_frame=on_frame)
         save_track(args.output, track)
     log.info("%s: %d of %d frames tracked -> %s", args.media, int(track.valid.sum()), track.n_frames, args.output)
+    wrote = ", ".join(x for x in (args.output, args.preview) if x)
+    print(f"track: {track.n_frames} frames ({int(track.valid.sum())} with a face), {args.backend} tracker; "
+          f"wrote {wrote}")
     return 0
