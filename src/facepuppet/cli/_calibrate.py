@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 from dataclasses import replace
+from pathlib import Path
 
 #: How a camera is named wherever a medium is (as in ``track`` and ``animate``).
 CAMERA_PREFIX = "camera:"
@@ -69,7 +70,6 @@ def _check_auto(args: argparse.Namespace, character, scores) -> None:
     no track brings the blendshape scores."""
     import importlib.util
     import os
-    from pathlib import Path
 
     missing = []
     if character is None:
@@ -137,6 +137,9 @@ def run(args: argparse.Namespace) -> int:
         else:
             result = examples.from_marks(args.media, args.marks, config=config, track=track,
                                          names=character.names if character is not None else None)
+    profile = config.tracker.profile if config.tracker.backend == "color" else None
+    result = replace(result, backend=config.tracker.backend,  # the rig records them; animate checks them
+                     profile=Path(profile).name if profile else None)
     save_performer(args.output, result)
     left_out = [w[len("left out "):] for w in result.warnings if w.startswith("left out ")]
     for w in result.warnings:

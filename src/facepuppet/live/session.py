@@ -248,6 +248,9 @@ def run_live(source: str | os.PathLike, rig, *, config: LiveConfig | None = None
         from facepuppet.pipeline.rig import load_rig
 
         rig, rig_label = load_rig(rig), str(rig)
+    from facepuppet.pipeline.animate import check_rig_tracker
+
+    check_rig_tracker(rig, tracker_options.backend, tracker_options.profile, rig_label)
     mapper = FrameMapper(rig, smoothing=config.smoothing, gain=config.gain, rig_label=rig_label)
 
     def rezero() -> None:

@@ -113,6 +113,18 @@ def check_rig_matches(rig, track: Track, rig_label: str = "rig") -> None:
             f"calibrate and rig again with this tracker")
 
 
+def check_rig_tracker(rig, backend: str | None, profile=None, rig_label: str = "rig") -> None:
+    """Raise FacepuppetError when ``backend`` is not the tracker the rig's key expressions were captured with;
+    log a warning when the colour tracker's ``profile`` file name differs from the one they were captured with."""
+    if rig.backend and backend and rig.backend != backend:
+        raise FacepuppetError(f"{rig_label}: its key expressions were captured with the {rig.backend} tracker, "
+                              f"not {backend}; animate with --backend {rig.backend}, or calibrate and rig again "
+                              f"with {backend}")
+    if rig.profile and profile is not None and Path(profile).name != rig.profile:
+        log.warning("%s: its key expressions were captured with the profile %s, not %s", rig_label, rig.profile,
+                    Path(profile).name)
+
+
 def map_track(rig, track: Track, config: AnimateConfig | None = None, *, rig_label: str = "rig") -> Animation:
     """Weights of every frame of a track: the stream's per-frame mapper (Eq. 13, smoothing, gain) over it.
 
@@ -202,6 +214,9 @@ def animate(media: str | os.PathLike | None, rig, *, glb: str | os.PathLike | No
         from facepuppet.io.track import load_track
 
         track = load_track(track)
+    tracker_options = config.tracker or TrackerOptions()
+    check_rig_tracker(rig, track.backend if track is not None else tracker_options.backend,
+                      None if track is not None else tracker_options.profile, rig_label)
     if track is not None:
         check_rig_matches(rig, track, rig_label)
         if not track.valid.any():

@@ -21,6 +21,8 @@ key                        shape       meaning
 ``character.source``       (B,) uint8  optional (version 2): the character's whole glTF scene as one GLB
 ``names``                  (M,)        the paired key-model names, in the mapper's example order
 ``point_names``            (P,)        the performer's feature point names (may be empty)
+``tracker.backend``        ()          optional: the tracker the key expressions were captured with
+``tracker.profile``        ()          optional: the file name of the colour tracker's profile they used
 =========================  ==========  ================================================================
 
 The character is kept whole, so an exported GLB has all its morph targets; the mapper's M weights go to the
@@ -66,12 +68,17 @@ class Rig:
         Paired key-model names, in the mapper's example order.
     point_names : tuple of P str
         The performer's feature point names (empty if the performer file had none).
+    backend, profile : str or None
+        The tracker backend and profile file name the key expressions were captured with (None: unknown);
+        ``animate`` with another backend refuses, with another profile warns.
     """
 
     mapper: Any
     character: Character
     names: tuple[str, ...]
     point_names: tuple[str, ...] = ()
+    backend: str | None = None
+    profile: str | None = None
 
     def __post_init__(self) -> None:
         unknown = [n for n in self.names if n not in self.character.names]
@@ -161,7 +168,8 @@ def fit_rig(performer: Performer, character: Character, *, method: str | None = 
         options["nuisance"] = performer.nuisance  # motion that is not an expression counts less
     mapper = ExpressionMapper.fit(performer.neutral, examples, character.neutral, targets, **options)
     rig = Rig(mapper=mapper, character=character, names=pairing.names,
-              point_names=tuple(performer.point_names or ()))
+              point_names=tuple(performer.point_names or ()), backend=performer.backend,
+              profile=performer.profile)
     return rig, pairing
 
 
@@ -185,6 +193,9 @@ def save_rig(path: str | os.PathLike, rig: Rig) -> None:
     }
     if c.faces is not None:
         arrays[_CHAR + "faces"] = np.asarray(c.faces, dtype=np.int64)
+    for key, value in (("tracker.backend", rig.backend), ("tracker.profile", rig.profile)):
+        if value is not None:
+            arrays[key] = np.asarray(str(value))
     if c.source is not None:
         arrays[_CHAR + "source"] = np.frombuffer(c.source, dtype=np.uint8)
     for key, value in rig.mapper.to_arrays().items():
@@ -227,7 +238,9 @@ def load_rig(path: str | os.PathLike) -> Rig:
                                                if k.startswith(_MAPPER)})
         return Rig(mapper=mapper, character=character,
                    names=tuple(str(n) for n in np.atleast_1d(arrays["names"])),
-                   point_names=tuple(str(n) for n in np.atleast_1d(arrays["point_names"])))
+                   point_names=tuple(str(n) for n in np.atleast_1d(arrays["point_names"])),
+                   backend=str(arrays["tracker.backend"]) if "tracker.backend" in arrays else None,
+                   profile=str(arrays["tracker.profile"]) if "tracker.profile" in arrays else None)
     except FacepuppetError as e:
         raise FacepuppetError(f"{path}: invalid rig file ({e})") from e
     except (ValueError, TypeError, KeyError, IndexError) as e:
