@@ -1,4 +1,4 @@
-"""Built-in characters by name (``--character toy``): GLB scenes with a material, vertex colours and normals.
+"""Built-in characters by name (``--character toy``, ``--character monkey``): GLB scenes with a material, vertex colours and normals.
 
 :func:`builtin_character` returns the character with :attr:`Character.source` set to its GLB, so an animation
 is written into that scene (colours and all); :func:`character_glb` gives the GLB bytes; :func:`load_character_arg`
@@ -21,7 +21,8 @@ from facepuppet.io.gltf import colored_glb
 __all__ = ["BUILTIN", "builtin_character", "character_glb", "load_character_arg"]
 
 #: Built-in characters: name -> what it is.
-BUILTIN = {"toy": "the demo's Toy: a cartoon head with 13 ARKit-named key-models"}
+BUILTIN = {"toy": "the demo's Toy: a cartoon head with 13 ARKit-named key-models",
+           "monkey": "a monkey (the paper's Fig. 7): wide muzzle, deep jaw, high brows; the same 13 key-models"}
 
 
 def _parts(name: str):
@@ -29,6 +30,10 @@ def _parts(name: str):
         from facepuppet.demo.toy import toy_character, toy_colors
 
         return toy_character(), toy_colors()
+    if name == "monkey":
+        from facepuppet.characters.monkey import monkey_character, monkey_colors
+
+        return monkey_character(), monkey_colors()
     raise FacepuppetError(f"no built-in character {name!r}; built-in: {', '.join(BUILTIN)}")
 
 

@@ -83,7 +83,12 @@ FILES: dict[str, str] = {
     "animation.glb": "the Toy animated by the performance (morph weights + head rotation)",
     "animation.csv": "the animation's weights, Live Link Face layout",
     "preview.mp4": "input with tracked curves (left) beside the animated Toy (right)",
+    "monkey.glb": "the Monkey, rigged on the same key expressions (--monkey)",
+    "monkey-animation.glb": "the Monkey animated by the same performance (--monkey)",
+    "preview-monkey.mp4": "the same performance on the Monkey: each character keeps its own personality",
 }
+#: Files written only with ``DemoConfig.monkey``.
+MONKEY_FILES = ("monkey.glb", "monkey-animation.glb", "preview-monkey.mp4")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -107,6 +112,9 @@ class DemoConfig:
         Progress bars; None shows them on a terminal.
     model : str or None
         The Face Landmarker model of the ``mediapipe`` tracker; None takes ``$FACEPUPPET_FACE_LANDMARKER``.
+    monkey : bool
+        Also rig the built-in Monkey on the same key expressions and animate it from the same track
+        (:data:`MONKEY_FILES`; the error figure is the Toy's).
     """
 
     seconds: float = 8.0
@@ -117,6 +125,7 @@ class DemoConfig:
     preview: bool = True
     progress: bool | None = None
     model: str | None = None
+    monkey: bool = False
 
     def __post_init__(self) -> None:
         if self.tracker not in TRACKERS:
@@ -242,6 +251,23 @@ def _write_marks(path: Path, marks: dict[str, int], spans: dict[str, tuple[int, 
         tmp.write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
+def _monkey(files: dict, performer, track, config: DemoConfig) -> None:
+    """The Monkey rigged on the performer's key expressions and animated from the same track."""
+    from facepuppet._util.atomic import atomic_path
+    from facepuppet.characters import builtin_character
+    from facepuppet.characters.monkey import monkey_colors
+    from facepuppet.pipeline.animate import AnimateConfig, animate
+    from facepuppet.pipeline.rig import fit_rig
+    from facepuppet.pipeline.tracking import TrackerOptions
+
+    monkey = builtin_character("monkey")
+    with atomic_path(files["monkey.glb"]) as tmp:
+        tmp.write_bytes(monkey.source)
+    rig, _ = fit_rig(performer, monkey)
+    animate(files["performance.mp4"], rig, glb=files["monkey-animation.glb"], preview=files.get("preview-monkey.mp4"),
+            track=track, colors=monkey_colors(), config=AnimateConfig(tracker=TrackerOptions(progress=config.progress)))
+
+
 def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig | None = None) -> DemoResult:
     """Run the demo, writing :data:`FILES` into ``folder`` (created if needed).
 
@@ -277,6 +303,10 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
         files.pop("performer-profile.npz")
     if not config.preview:
         files.pop("preview.mp4")
+        files.pop("preview-monkey.mp4")
+    if not config.monkey:
+        for name in MONKEY_FILES:
+            files.pop(name, None)
     timings: dict[str, float] = {}
     progress = config.progress is not False
     t_start = time.perf_counter()
@@ -359,6 +389,9 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
                    preview=files.get("preview.mp4"), track=track, colors=toy_colors(),
                    config=AnimateConfig(tracker=TrackerOptions(progress=config.progress)))
     t = step("animate + preview" if config.preview else "animate", t)
+    if config.monkey:
+        _monkey(files, load_performer(files["performer.npz"]), track, config)
+        t = step("monkey", t)
     write_overlay_video(files["overlay.mp4"], files["performance.mp4"], track)
     t = step("overlay", t)
 
