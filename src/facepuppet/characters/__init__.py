@@ -1,4 +1,5 @@
-"""Built-in characters by name (``--character toy``, ``--character monkey``): GLB scenes with a material, vertex colours and normals.
+"""Built-in characters by name (``--character toy``, ``--character monkey``): GLB scenes with a material,
+vertex colours and normals.
 
 :func:`builtin_character` returns the character with :attr:`Character.source` set to its GLB, so an animation
 is written into that scene (colours and all); :func:`character_glb` gives the GLB bytes; :func:`load_character_arg`
