@@ -12,6 +12,7 @@ from facepuppet.export.scene_animation import find_head_joint, write_scene_anima
 from facepuppet.io.gltf import read_gltf
 from facepuppet.io.scene import parse_glb
 from gltf_validator import gltf_validator  # noqa: F401  (fixture)
+from three_loader import three_loader  # noqa: F401  (fixture)
 from scene_characters import HEAD_DEFAULTS, skinned_character, world_matrices
 
 DRIVEN = ("jawOpen", "eyeBlinkLeft", "mouthSmileLeft")
@@ -140,3 +141,18 @@ def test_head_joint_names(name):
     assert find_head_joint(doc) == 1
     doc["nodes"][1]["name"] = "Headlight"
     assert find_head_joint(doc) is None
+
+
+def test_whole_scene_plays_in_threejs(tmp_path, rng, three_loader):  # noqa: F811
+    made, character, weights, _, out = _written(tmp_path, rng, rotation=False)
+    t = float(np.float32(3 / 30.0))
+    report = three_loader.play(out, [t], clip="performance")
+    assert {c["name"] for c in report["clips"]} == {"idle", "performance"}
+    assert {m["name"] for m in report["meshes"]} >= {"HeadMesh", "Teeth", "Eyes"}
+    full = np.concatenate([weights[3], [HEAD_DEFAULTS[3]]])
+    expected = character.neutral + np.tensordot(full, character.deltas, axes=1)  # Eq. 14
+    shown = report["samples"][0]["meshPositions"]
+    n_teeth, n_eyes = len(made["parts"]["teeth"][0]), len(made["parts"]["eyes"][0])
+    np.testing.assert_allclose(shown["Teeth"], expected[:n_teeth], atol=1e-5)
+    np.testing.assert_allclose(shown["Eyes"], expected[n_teeth:n_teeth + n_eyes], atol=1e-5)
+    np.testing.assert_allclose(shown["HeadMesh"], expected[n_teeth + n_eyes:], atol=1e-5)  # skinned, bind pose
