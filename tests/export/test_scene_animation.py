@@ -8,12 +8,13 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from blender_python import blender  # noqa: F401  (fixture)
 from facepuppet.export.scene_animation import find_head_joint, write_scene_animation
 from facepuppet.io.gltf import read_gltf
 from facepuppet.io.scene import parse_glb
 from gltf_validator import gltf_validator  # noqa: F401  (fixture)
-from three_loader import three_loader  # noqa: F401  (fixture)
 from scene_characters import HEAD_DEFAULTS, skinned_character, world_matrices
+from three_loader import three_loader  # noqa: F401  (fixture)
 
 DRIVEN = ("jawOpen", "eyeBlinkLeft", "mouthSmileLeft")
 
@@ -156,3 +157,29 @@ def test_whole_scene_plays_in_threejs(tmp_path, rng, three_loader):  # noqa: F81
     np.testing.assert_allclose(shown["Teeth"], expected[:n_teeth], atol=1e-5)
     np.testing.assert_allclose(shown["Eyes"], expected[n_teeth:n_teeth + n_eyes], atol=1e-5)
     np.testing.assert_allclose(shown["HeadMesh"], expected[n_teeth + n_eyes:], atol=1e-5)  # skinned, bind pose
+
+
+def test_whole_scene_loads_in_blender(tmp_path, rng, blender):  # noqa: F811
+    """Blender imports both animations as actions and shows the idle one; the performance's action holds the
+    weights of every mesh, and each mesh's evaluated vertices are Eq. 14 at the shape-key values shown."""
+    made, character, weights, _, out = _written(tmp_path, rng, rotation=False)
+    report = blender.load(out, 30, [3])
+    assert {"Teeth", "Eyes", "head"} <= {m["name"] for m in report["meshes"]}
+    (action,) = [a for a in report["actions"] if a["name"].startswith("performance")]
+    curves = {}
+    for fc in action["fcurves"]:
+        curves.setdefault(fc["data_path"], []).append(fc["values"])
+    for name, k in (("jawOpen", 0), ("eyeBlinkLeft", 1), ("mouthSmileLeft", 2)):
+        for values in curves[f'key_blocks["{name}"].value']:  # head, teeth and eyes carry the same curve
+            np.testing.assert_allclose(values, weights[:, k], atol=1e-6)
+    assert len(curves['key_blocks["jawOpen"].value']) == 2 and 'key_blocks["extraShape"].value' in curves
+    sample = report["samples"][0]
+    n_teeth, n_eyes = len(made["parts"]["teeth"][0]), len(made["parts"]["eyes"][0])
+    slices = {"Teeth": slice(0, n_teeth), "Eyes": slice(n_teeth, n_teeth + n_eyes),
+              "head": slice(n_teeth + n_eyes, None)}
+    y_up_to_z_up = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+    for mesh, sl in slices.items():
+        keys = sample["shape_keys"][mesh]
+        w = np.array([keys.get(n, 0.0) for n in character.names])
+        expected = character.neutral[sl] + np.tensordot(w, character.deltas[:, sl], axes=1)  # Eq. 14
+        np.testing.assert_allclose(sample["positions"][mesh], expected @ y_up_to_z_up.T, atol=1e-5, err_msg=mesh)
