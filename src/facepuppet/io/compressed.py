@@ -93,6 +93,10 @@ def decode_compressed(doc: dict, views: list[bytes], buffers: list[bytes | None]
                     if att is None:
                         raise FacepuppetError(f"{label}: Draco primitive lacks attribute {attr} (id {uid})")
                     _fill(doc, views, prim["attributes"][attr], np.asarray(att["data"]))
+    found = sorted(set(doc.get("extensionsUsed") or []) & COMPRESSION)
+    if found:
+        log.warning("%s: decoded %s; what facepuppet writes from this character is uncompressed", label,
+                    ", ".join(found))
     for key in ("extensionsUsed", "extensionsRequired"):
         kept = [e for e in doc.get(key) or [] if e not in COMPRESSION]
         if kept:
