@@ -12,6 +12,7 @@ from facepuppet.cli import main
 from facepuppet.io.performer import Performer, save_performer
 from facepuppet.io.scene import parse_glb
 from facepuppet.pipeline.rig import load_rig
+from gltf_validator import gltf_validator  # noqa: F401  (fixture)
 
 
 @pytest.mark.parametrize("flag,name,kind", [("-o", "y.fbx", "animated character"),
@@ -91,3 +92,40 @@ def test_rig_records_the_tracker_and_animate_refuses_another(tmp_path, rng, caps
                  "mediapipe", "-o", str(tmp_path / "out.glb")])
     assert code != 0 and not (tmp_path / "out.glb").exists()
     assert "captured with the color tracker, not mediapipe" in capsys.readouterr().err
+
+
+def test_skinned_textured_character_through_the_cli(tmp_path, assets, face_landmarker, rng, capsys,
+                                                    gltf_validator):  # noqa: F811
+    """track -> calibrate --auto -> rig -> animate on a character the test builds: the scene comes out whole,
+    one animation added, validator clean; its meshopt and Draco copies give the same rig."""
+    from compressed_copies import draco_copy, meshopt_copy
+    from scene_characters import skinned_character
+
+    video = assets / "video" / "performer_c.mp4"
+    glb = skinned_character(rng)["glb"]
+    (tmp_path / "c.glb").write_bytes(glb)
+    track, perf = tmp_path / "track.npz", tmp_path / "p.npz"
+    mp = ["--backend", "mediapipe", "--model", str(face_landmarker), "--no-progress"]
+    assert main(["track", str(video), "-o", str(track), "--max-frames", "150", *mp]) == 0
+    assert main(["calibrate", str(video), "--auto", "--track", str(track), "--character", str(tmp_path / "c.glb"),
+                 "-o", str(perf), *mp]) == 0
+    rigs = {}
+    for name, data in (("c", glb), ("meshopt", meshopt_copy(glb)), ("draco", draco_copy(glb))):
+        (tmp_path / f"{name}.glb").write_bytes(data)
+        assert main(["rig", "--performer", str(perf), "--character", str(tmp_path / f"{name}.glb"), "-o",
+                     str(tmp_path / f"{name}.npz")]) == 0
+        rigs[name] = load_rig(tmp_path / f"{name}.npz")
+    out = tmp_path / "out.glb"
+    assert main(["animate", str(video), "--rig", str(tmp_path / "c.npz"), "--track", str(track), "-o", str(out),
+                 "--backend", "mediapipe", "--no-progress"]) == 0
+    assert f"wrote {out}" in capsys.readouterr().out
+    doc_in, _ = parse_glb(glb)
+    doc, _ = parse_glb(out.read_bytes())
+    for key in ("nodes", "meshes", "materials", "textures", "images", "samplers", "skins", "cameras", "scenes"):
+        assert doc[key] == doc_in[key], key
+    assert len(doc["animations"]) == len(doc_in["animations"]) + 1
+    gltf_validator.check(out)
+    probe = rigs["c"].mapper.source_base + rng.normal(size=rigs["c"].mapper.source_base.shape) * 1e-3
+    for name in ("meshopt", "draco"):
+        assert rigs[name].names == rigs["c"].names
+        np.testing.assert_allclose(rigs[name].mapper.weights(probe), rigs["c"].mapper.weights(probe), atol=1e-4)
