@@ -7,7 +7,8 @@ is what the CLI calls with a ``--character`` argument: an existing path is read 
 built-in name (:data:`BUILTIN`) is taken.
 
 The colours are vertex colours (``COLOR_0``) under one white, rough, non-metallic material, so any glTF viewer
-shows the character as the demo's preview draws it (the Toy green with red lips).
+shows the character as the demo's preview draws it (the Toy green with red lips). The characters are built
+by :mod:`facepuppet.demo.toy` and :mod:`facepuppet.demo.monkey`; this package sits above ``demo`` (below ``cli``).
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ def _parts(name: str):
 
         return toy_character(), toy_colors()
     if name == "monkey":
-        from facepuppet.characters.monkey import monkey_character, monkey_colors
+        from facepuppet.demo.monkey import monkey_character, monkey_colors
 
         return monkey_character(), monkey_colors()
     raise FacepuppetError(f"no built-in character {name!r}; built-in: {', '.join(BUILTIN)}")

@@ -254,13 +254,14 @@ def _write_marks(path: Path, marks: dict[str, int], spans: dict[str, tuple[int, 
 def _monkey(files: dict, performer, track, config: DemoConfig) -> None:
     """The Monkey rigged on the performer's key expressions and animated from the same track."""
     from facepuppet._util.atomic import atomic_path
-    from facepuppet.characters import builtin_character
-    from facepuppet.characters.monkey import monkey_colors
+    from facepuppet.demo.monkey import monkey_character, monkey_colors
+    from facepuppet.io.gltf import colored_glb
     from facepuppet.pipeline.animate import AnimateConfig, animate
     from facepuppet.pipeline.rig import fit_rig
     from facepuppet.pipeline.tracking import TrackerOptions
 
-    monkey = builtin_character("monkey")
+    monkey = monkey_character()
+    monkey = replace(monkey, source=colored_glb(monkey, monkey_colors()))
     with atomic_path(files["monkey.glb"]) as tmp:
         tmp.write_bytes(monkey.source)
     rig, _ = fit_rig(performer, monkey)
