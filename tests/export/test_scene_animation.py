@@ -183,3 +183,16 @@ def test_whole_scene_loads_in_blender(tmp_path, rng, blender):  # noqa: F811
         w = np.array([keys.get(n, 0.0) for n in character.names])
         expected = character.neutral[sl] + np.tensordot(w, character.deltas[:, sl], axes=1)  # Eq. 14
         np.testing.assert_allclose(sample["positions"][mesh], expected @ y_up_to_z_up.T, atol=1e-5, err_msg=mesh)
+
+
+def test_gltf_output_is_json_with_the_buffer_embedded(tmp_path, rng, gltf_validator):  # noqa: F811
+    made = skinned_character(rng)
+    (tmp_path / "c.glb").write_bytes(made["glb"])
+    character = read_gltf(tmp_path / "c.glb")
+    out = tmp_path / "out.gltf"
+    write_scene_animation(out, character.source, DRIVEN, rng.uniform(0, 1, size=(3, 3)), 30.0)
+    assert out.read_text(encoding="utf-8").lstrip().startswith("{")
+    gltf_validator.check(out)
+    back = read_gltf(out)
+    assert back.names == character.names
+    np.testing.assert_array_equal(back.targets, character.targets)

@@ -25,7 +25,9 @@ The animation has one key per frame (LINEAR):
 
 from __future__ import annotations
 
+import base64
 import copy
+import json
 import logging
 import os
 import re
@@ -120,12 +122,8 @@ def write_scene_animation(path: str | os.PathLike, source: bytes, names: Sequenc
     path = Path(path)
     with atomic_path(path) as tmp:
         if path.suffix.lower() == ".gltf":
-            import base64
-
             doc["buffers"][0]["uri"] = ("data:application/octet-stream;base64,"
                                         + base64.b64encode(bytes(blob)).decode("ascii"))
-            import json
-
             tmp.write_text(json.dumps(doc, indent=1, ensure_ascii=False), encoding="utf-8")
         else:
             tmp.write_bytes(glb_bytes(doc, bytes(blob)))
