@@ -129,3 +129,11 @@ def test_skinned_textured_character_through_the_cli(tmp_path, assets, face_landm
     for name in ("meshopt", "draco"):
         assert rigs[name].names == rigs["c"].names
         np.testing.assert_allclose(rigs[name].mapper.weights(probe), rigs["c"].mapper.weights(probe), atol=1e-4)
+
+
+def test_live_record_checks_its_suffix_before_the_camera(tmp_path):
+    from facepuppet.live.session import run_live
+
+    message = r"y\.fbx: the animated character is written as \.glb, \.gltf, \.vrm, not \.fbx"
+    with pytest.raises(ValueError, match=message):
+        run_live(str(tmp_path / "missing.mp4"), str(tmp_path / "missing.npz"), record=tmp_path / "y.fbx")

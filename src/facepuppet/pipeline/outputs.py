@@ -31,7 +31,7 @@ def check_suffix(path: str | os.PathLike, kind: str) -> None:
     """Raise ValueError naming ``path`` when its suffix is not one the output ``kind`` writes."""
     allowed = OUTPUT_SUFFIXES[kind]
     if Path(path).suffix.lower() not in allowed:
-        raise ValueError(f"{path}: a {kind} is written as {' or '.join(allowed)}, not "
+        raise ValueError(f"{path}: the {kind} is written as {', '.join(allowed)}, not "
                          f"{Path(path).suffix or 'a name without suffix'}")
 
 
