@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from facepuppet.characters import BUILTIN, builtin_character
+from facepuppet.demo.characters import BUILTIN, builtin_character
 from facepuppet.demo.monkey import KEY_NAMES, MONKEY_PARTS, monkey_character, monkey_colors
 from facepuppet.demo.run import DemoConfig, run_demo
 from facepuppet.demo.script import KEY_NAMES as DEMO_KEYS

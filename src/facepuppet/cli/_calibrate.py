@@ -99,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
         window=args.window)
     character = None
     if args.character:
-        from facepuppet.characters import load_character_arg
+        from facepuppet.demo.characters import load_character_arg
 
         character = load_character_arg(args.character)
     track = None

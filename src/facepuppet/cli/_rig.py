@@ -26,7 +26,7 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from facepuppet.characters import load_character_arg
+    from facepuppet.demo.characters import load_character_arg
     from facepuppet.io.performer import load_performer
     from facepuppet.pipeline.rig import fit_rig, save_rig
 

@@ -8,7 +8,7 @@ built-in name (:data:`BUILTIN`) is taken.
 
 The colours are vertex colours (``COLOR_0``) under one white, rough, non-metallic material, so any glTF viewer
 shows the character as the demo's preview draws it (the Toy green with red lips). The characters are built
-by :mod:`facepuppet.demo.toy` and :mod:`facepuppet.demo.monkey`; this package sits above ``demo`` (below ``cli``).
+by :mod:`facepuppet.demo.toy` and :mod:`facepuppet.demo.monkey`.
 """
 
 from __future__ import annotations
