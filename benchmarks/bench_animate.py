@@ -73,8 +73,9 @@ def main(argv=None) -> int:
     model = args.model or os.environ.get("FACEPUPPET_FACE_LANDMARKER") or str(assets / "models" /
                                                                                 "face_landmarker.task")
 
+    from facepuppet.capture.color.profile import save_profile
+    from facepuppet.capture.color.train import train_profile
     from facepuppet.capture.landmarks import BLENDSHAPE_NAMES, MediaPipeTracker
-    from facepuppet.capture.profile import calibrate_profile, save_profile
     from facepuppet.capture.tracking import track_media
     from facepuppet.io.frames import open_media
     from facepuppet.io.performer import Performer
@@ -95,8 +96,8 @@ def main(argv=None) -> int:
         with open_media(clip) as src:
             frames = [f for k, f in enumerate(src) if k % 3 == 0]
         keep = ref.valid[::3]
-        profile = calibrate_profile([f for f, k in zip(frames, keep, strict=True) if k], ref.curves[::3][keep],
-                                    name=clip_name)
+        profile = train_profile([f for f, k in zip(frames, keep, strict=True) if k], ref.curves[::3][keep],
+                                name=clip_name)
         profile_path = tmp / f"{clip_name}-profile.npz"
         save_profile(profile_path, profile)
         del frames

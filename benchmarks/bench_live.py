@@ -88,7 +88,6 @@ def make_rigs(clip: Path, model: str, character, tmp: Path) -> dict:
     """backend -> (rig, TrackerOptions), as bench_animate makes them."""
     from facepuppet.capture.color.profile import save_profile
     from facepuppet.capture.color.train import train_profile
-
     from facepuppet.capture.landmarks import MediaPipeTracker
     from facepuppet.capture.tracking import track_media
     from facepuppet.io.frames import open_media

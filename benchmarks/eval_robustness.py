@@ -82,7 +82,7 @@ def measure(job: tuple[str, str, str, str]) -> tuple[str, str, str]:
     """Make, track and score one copy; returns (clip, variant, the yardstick's summary line)."""
     clip, variant, assets, tmp = job
     os.environ.pop("FACEPUPPET_FACE_LANDMARKER", None)
-    from facepuppet.capture.color_tracker import ColorTracker
+    from facepuppet.capture.color.tracker import ColorTracker
     from facepuppet.capture.tracking import track_media
     from facepuppet.io.track import save_track
 

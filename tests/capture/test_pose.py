@@ -168,16 +168,17 @@ def test_pose_points_from_curves_reads_curve_ends():
 
 
 def test_gauss_newton_refinement_agrees_with_solvepnp():
-    from facepuppet.capture.pose import STABLE_FEATURES, _camera, _generic_landmarks, _refine_pose
+    from facepuppet.capture.generic_face import generic_landmarks
+    from facepuppet.capture.pose import STABLE_FEATURES, camera_matrix, refine_pose
 
-    xyz = np.array(_generic_landmarks(STABLE_FEATURES))
-    K = np.array(_camera(640.0, 480.0, None))
+    xyz = np.array(generic_landmarks(STABLE_FEATURES))
+    K = np.array(camera_matrix(640.0, 480.0, None))
     R = cv2.Rodrigues(np.array([0.15, -0.3, 0.1]))[0] @ np.diag([1.0, -1.0, -1.0])
     t = np.array([2.0, -1.0, 45.0])
     proj = (xyz @ R.T + t) @ K.T
     uv = proj[:, :2] / proj[:, 2:] + np.random.default_rng(0).normal(0.0, 0.7, (len(xyz), 2))
     R0 = cv2.Rodrigues(np.array([0.05, 0.04, -0.03]))[0] @ R
-    Rg, tg, ok = _refine_pose(xyz, uv, K, R0, t + 0.5)
+    Rg, tg, ok = refine_pose(xyz, uv, K, R0, t + 0.5)
     assert ok
     _, rvec, tvec = cv2.solvePnP(xyz, uv, K, None, cv2.Rodrigues(R0)[0], (t + 0.5).reshape(3, 1),
                                  useExtrinsicGuess=True, flags=cv2.SOLVEPNP_ITERATIVE)

@@ -43,7 +43,8 @@ def test_mediapipe_track_file_schema(tracked):
     code, out = tracked
     assert code == 0
     with np.load(out / "c.npz", allow_pickle=False) as d:
-        assert set(TRACK_KEYS) | {"blendshapes", "blendshape_names"} == set(d.files)
+        assert set(TRACK_KEYS) | {"blendshapes", "blendshape_names", "media_size", "media_frames", "media_hash"} \
+            == set(d.files)
         assert d["fps"].shape == () and float(d["fps"]) == pytest.approx(30.0)
         np.testing.assert_array_equal(d["frame_size"], [480, 480])
         assert d["valid"].dtype == bool and d["valid"].shape == (N,) and d["valid"].all()

@@ -66,7 +66,7 @@ def test_make_tracker_passes_options(face_landmarker):
     from facepuppet.capture.landmarks import MediaPipeTracker
 
     with make_tracker("mediapipe", model_path=face_landmarker, running_mode="image") as t:
-        assert isinstance(t, MediaPipeTracker) and t.name == "mediapipe" and not t._video
+        assert isinstance(t, MediaPipeTracker) and t.name == "mediapipe" and t.running_mode == "image"
 
 
 def test_track_media_stacks_frames_and_marks_lost_ones(tmp_path):

@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from facepuppet.capture.color import DEFAULT_WEIGHTS, LipHue, lip_hue_table, transform
+from facepuppet.capture.color.transform import DEFAULT_WEIGHTS, LipHue, lip_hue_table, transform
 from facepuppet.capture.curves import CURVE_NAMES, POINT_NAMES, bezier_points
 from facepuppet.capture.pose import STABLE_FEATURES, estimate_pose, generic_points, pose_points_from_curves
 from facepuppet.demo.performer import (

@@ -179,3 +179,15 @@ def test_an_error_in_the_stream_leaves_no_recording(demo, tmp_path):
         run_live(demo.files["performance.mp4"], demo.files["rig.npz"], config=LiveConfig(pace="fast", status=False),
                  record=tmp_path / "r.glb", senders=[Broken()])
     assert list(tmp_path.iterdir()) == []
+
+
+def test_warmup_runs_on_the_first_frame_before_the_clock_starts():
+    seen = []
+
+    def warmup(rgb):
+        seen.append(int(rgb[0, 0, 0]))
+        time.sleep(0.3)                          # as long as 15 frames at 50 fps
+
+    live = LiveSource(FakeSource(20, fps=50.0), pace="realtime", warmup=warmup)
+    got = [f.index for f in live]
+    assert seen == [0] and got == list(range(20)) and live.dropped == 0

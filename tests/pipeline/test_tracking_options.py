@@ -15,7 +15,7 @@ class _Recorder:
         self.kwargs = None
 
     def __call__(self, backend, **kwargs):
-        from facepuppet.capture.color_tracker import ColorTracker
+        from facepuppet.capture.color.tracker import ColorTracker
 
         self.kwargs = kwargs
         return ColorTracker()

@@ -3,46 +3,116 @@
 Every reader needs the same care: a missing file, a file that is not a zip archive, a truncated archive, or
 an object array (which would need pickle) become one :class:`FacepuppetError` naming the file, and a file of
 another kind or of a newer version than this facepuppet reads is refused with a message saying so.
+
+A hostile archive is read as little as possible: only the members the format knows are opened (an unknown
+member is never inflated), and each member's ``.npy`` header (shape, dtype) is read first and checked against
+:data:`LIMITS` before its data is inflated, so a header claiming 10^12 values or a small file inflating to
+gigabytes is refused without allocating.
 """
 
 from __future__ import annotations
 
+import math
 import os
+import stat
 import zipfile
 import zlib
+from collections.abc import Iterable
 
 import numpy as np
 
 from facepuppet.errors import FacepuppetError
 
-__all__ = ["read_npz", "check_format"]
+__all__ = ["read_npz", "check_format", "LIMITS"]
+
+#: Sane bounds of one archive: bytes of one member's array, of all arrays together, members in the archive.
+LIMITS = {"member_bytes": 1 << 30, "total_bytes": 2 << 30, "members": 10_000}
 
 
-def read_npz(path: str | os.PathLike, what: str) -> dict[str, np.ndarray]:
-    """Every array of an ``.npz`` file, read eagerly with ``allow_pickle=False``.
+def _header(f) -> tuple[tuple[int, ...], bool, np.dtype]:
+    version = np.lib.format.read_magic(f)
+    if version == (1, 0):
+        return np.lib.format.read_array_header_1_0(f)
+    if version == (2, 0):
+        return np.lib.format.read_array_header_2_0(f)
+    raise ValueError(f"unsupported .npy version {version}")
+
+
+def _read_member(zf: zipfile.ZipFile, info: zipfile.ZipInfo, name: str, budget: list[int]) -> np.ndarray:
+    with zf.open(info) as f:
+        shape, fortran, dtype = _header(f)
+        if dtype.hasobject:
+            raise ValueError(f"member {name!r} holds Python objects (would need pickle)")
+        if any(int(n) < 0 for n in shape):
+            raise ValueError(f"member {name!r} has a negative shape {shape}")
+        nbytes = math.prod(int(n) for n in shape) * dtype.itemsize
+        if nbytes > LIMITS["member_bytes"]:
+            raise ValueError(f"member {name!r} claims {nbytes} bytes (shape {shape}), more than "
+                             f"{LIMITS['member_bytes']} this reader accepts")
+        if nbytes > info.file_size:
+            raise ValueError(f"member {name!r} claims {nbytes} bytes but holds {info.file_size} (truncated)")
+        budget[0] -= nbytes
+        if budget[0] < 0:
+            raise ValueError(f"the arrays add up to more than {LIMITS['total_bytes']} bytes")
+        data = f.read(nbytes)
+        if len(data) != nbytes:
+            raise ValueError(f"member {name!r} is truncated")
+        arr = np.frombuffer(data, dtype=dtype)
+        return (arr.reshape(shape[::-1]).T if fortran else arr.reshape(shape)).copy()
+
+
+def read_npz(path: str | os.PathLike, what: str, *, known: Iterable[str] | None = None,
+             prefixes: Iterable[str] = ()) -> dict[str, np.ndarray]:
+    """The arrays of an ``.npz`` file the format knows, read with their headers checked first (no pickle).
 
     Parameters
     ----------
     path : str or PathLike
     what : str
         What the file should be ("rig file", ...), for the error message.
+    known : iterable of str, optional
+        The member names the format has; others are skipped unread. None reads every member.
+    prefixes : iterable of str
+        Members whose names start with one of these are known too (``mapper.``, ``option_``).
 
     Raises
     ------
     FacepuppetError
-        If the file is missing or cannot be read as an ``.npz`` archive of plain arrays.
+        If the file is missing, not a regular file, or cannot be read as an ``.npz`` archive of plain arrays
+        within :data:`LIMITS`.
     """
+    known = None if known is None else set(known)
+    prefixes = tuple(prefixes)
     try:
-        data = np.load(path, allow_pickle=False)
-        if not isinstance(data, np.lib.npyio.NpzFile):
-            raise ValueError("a single array, not an .npz archive")
-        with data:
-            return {k: data[k] for k in data.files}
+        st = os.stat(path)
     except FileNotFoundError as e:
         raise FacepuppetError(f"{path}: no such file") from e
-    except IsADirectoryError as e:
-        raise FacepuppetError(f"{path}: is a folder, not a {what}") from e
-    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, zlib.error) as e:
+    except OSError as e:
+        raise FacepuppetError(f"{path}: cannot read {what} ({e.strerror})") from e
+    if stat.S_ISDIR(st.st_mode):
+        raise FacepuppetError(f"{path}: is a folder, not a {what}")
+    if not stat.S_ISREG(st.st_mode):
+        raise FacepuppetError(f"{path}: not a regular file, not a {what}")
+    try:
+        with zipfile.ZipFile(path) as zf:
+            infos = zf.infolist()
+            if len(infos) > LIMITS["members"]:
+                raise ValueError(f"{len(infos)} members, more than {LIMITS['members']}")
+            out: dict[str, np.ndarray] = {}
+            budget = [LIMITS["total_bytes"]]
+            for info in infos:
+                if not info.filename.endswith(".npy"):
+                    continue
+                name = info.filename[:-len(".npy")]
+                if known is not None and name not in known and not name.startswith(prefixes):
+                    continue
+                if name in out:
+                    raise ValueError(f"member {name!r} appears twice")
+                out[name] = _read_member(zf, info, name, budget)
+            return out
+    except MemoryError as e:
+        raise FacepuppetError(f"{path}: cannot read {what} (out of memory)") from e
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, zlib.error, NotImplementedError) as e:
         raise FacepuppetError(f"{path}: cannot read {what} ({e})") from e
 
 

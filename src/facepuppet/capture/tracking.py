@@ -27,7 +27,7 @@ log = logging.getLogger(__name__)
 
 #: Tracker backends: name -> (module, class). Imported only when asked for.
 BACKENDS: dict[str, tuple[str, str]] = {
-    "color": ("facepuppet.capture.color_tracker", "ColorTracker"),
+    "color": ("facepuppet.capture.color.tracker", "ColorTracker"),
     "mediapipe": ("facepuppet.capture.landmarks", "MediaPipeTracker"),
 }
 

@@ -29,7 +29,10 @@ def register(subparsers) -> None:
                    help="One-Euro smoothing: on (default), off, or e.g. min_cutoff=1.5,beta=2,hold=0.25,ease=0.3")
     p.add_argument("--no-head", action="store_true", help="do not animate the head rotation")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.set_defaults(run=run)
+    p.set_defaults(run=run,
+                   inputs=(("media", "MEDIA"), ("rig", "--rig"), ("profile", "--profile"), ("model", "--model"),
+                           ("track", "--track")),
+                   outputs=(("output", "-o"), ("csv", "--csv"), ("preview", "--preview")))
 
 
 def run(args: argparse.Namespace) -> int:

@@ -47,7 +47,10 @@ def register(subparsers) -> None:
     p.add_argument("--track", metavar="TRACK.npz", help="reuse a track of MEDIA made by facepuppet track")
     p.add_argument("--window", type=int, default=5, metavar="N", help="frames averaged per expression (5)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.set_defaults(run=run)
+    p.set_defaults(run=run,
+                   inputs=(("media", "MEDIA"), ("marks", "--marks"), ("character", "--character"),
+                           ("profile", "--profile"), ("model", "--model"), ("track", "--track")),
+                   outputs=(("output", "-o"), ("train_profile", "--train-profile")))
 
 
 def _camera(args: argparse.Namespace) -> str | None:
@@ -137,9 +140,11 @@ def run(args: argparse.Namespace) -> int:
         else:
             result = examples.from_marks(args.media, args.marks, config=config, track=track,
                                          names=character.names if character is not None else None)
-    profile = config.tracker.profile if config.tracker.backend == "color" else None
-    result = replace(result, backend=config.tracker.backend,  # the rig records them; animate checks them
-                     profile=Path(profile).name if profile else None)
+    from facepuppet._util.digest import file_digest
+
+    made_with = track.backend if track is not None and args.marks else args.backend
+    profile = config.tracker.profile if made_with == "color" else None
+    result = replace(result, backend=made_with, profile_hash=file_digest(profile) if profile else None)
     save_performer(args.output, result)
     left_out = [w[len("left out "):] for w in result.warnings if w.startswith("left out ")]
     for w in result.warnings:

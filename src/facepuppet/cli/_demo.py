@@ -3,6 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+import math
+import os
+from pathlib import Path
+
+#: Longest demo performance, seconds, and the most memory its rendered frames may take, bytes.
+MAX_SECONDS = 600.0
+MAX_BYTES = 3 * 2**30
 
 
 def register(subparsers) -> None:
@@ -26,14 +34,22 @@ def register(subparsers) -> None:
     p.add_argument("--monkey", action="store_true",
                    help="also animate the built-in Monkey from the same performance (preview-monkey.mp4)")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
-    p.set_defaults(run=run)
+    p.set_defaults(run=run,
+                   inputs=(("model", "--model"),),
+                   outputs=(("output", "-o"),),
+                   folder_outputs=("output",))
 
 
 def run(args: argparse.Namespace) -> int:
     from facepuppet.demo.run import FILES, TRACKERS, DemoConfig, run_demo
 
-    if args.seconds < 4.6:
+    if not math.isfinite(args.seconds) or args.seconds < 4.6:
         raise ValueError(f"--seconds must be at least 4.6 (each key expression gets its turn), got {args.seconds}")
+    defaults = DemoConfig()
+    need = args.seconds * defaults.fps * defaults.size ** 2 * 3 * 2   # the rendered frames, and a copy
+    if args.seconds > MAX_SECONDS or need > MAX_BYTES:
+        raise ValueError(f"--seconds {args.seconds:g}: at most {MAX_SECONDS:g} (the demo renders the whole "
+                         f"performance in memory: {need / 2**30:.1f} GiB asked, at most {MAX_BYTES / 2**30:.0f})")
     if args.model is not None and args.tracker != "mediapipe":
         raise ValueError(f"--model is for --tracker mediapipe, not --tracker {args.tracker}")
     config = DemoConfig(seconds=args.seconds, seed=args.seed, tracker=args.tracker, preview=not args.no_preview,
@@ -42,7 +58,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"facepuppet demo: tracking with {TRACKERS[config.tracker]}")
     if config.tracker == "truth":
         print("  (no image is analysed: the chain runs on exact curves; the colour tracker is the default)")
-    result = run_demo(args.output, config)
+    with _remove_on_failure(Path(args.output)):
+        result = run_demo(args.output, config)
     print(f"wrote into {args.output}/")
     for name, path in result.files.items():
         print(f"  {path.name:<24} {FILES[name]}")
@@ -56,3 +73,41 @@ def run(args: argparse.Namespace) -> int:
           + (" -- with the TRUE curves as the track" if result.tracker == "truth" else ""))
     print(f"time: {result.seconds:.1f} s in all ({steps})")
     return 0
+
+
+@contextlib.contextmanager
+def _remove_on_failure(folder: Path):
+    """On any failure or interrupt, remove what the demo created in ``folder`` (the folder too, if it made it)
+    and end the worker processes it started; files that were there before are left alone."""
+    from facepuppet.demo.run import FILES
+
+    existed = folder.is_dir()
+    before = {name for name in FILES if (folder / name).exists()} if existed else set()
+    try:
+        yield
+    except BaseException:
+        end_children()
+        for name in FILES:
+            if name not in before:
+                with contextlib.suppress(OSError):
+                    (folder / name).unlink()
+        if not existed:
+            with contextlib.suppress(OSError):
+                folder.rmdir()
+        raise
+
+
+def end_children() -> None:
+    """Terminate this process's child processes (the kernel precompile workers), by their process ids."""
+    import signal
+
+    pids = []
+    for task in Path(f"/proc/{os.getpid()}/task").glob("*/children"):
+        with contextlib.suppress(OSError, ValueError):
+            pids += [int(p) for p in task.read_text().split()]
+    for pid in pids:
+        with contextlib.suppress(OSError):
+            os.kill(pid, signal.SIGTERM)
+    for pid in pids:
+        with contextlib.suppress(OSError):
+            os.waitpid(pid, 0)

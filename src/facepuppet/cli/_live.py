@@ -41,13 +41,16 @@ def register(sub) -> None:
     p.add_argument("--smoothing", default="on", metavar="on|off|K=V,...", help="One-Euro smoothing (as animate)")
     p.add_argument("--no-head", action="store_true", help="do not send or record the head rotation")
     p.add_argument("--no-status", action="store_true", help="no status line")
-    p.set_defaults(run=run)
+    p.set_defaults(run=run,
+                   inputs=(("source", "SOURCE"), ("rig", "--rig"), ("profile", "--profile"), ("model", "--model")),
+                   outputs=(("record", "--record"), ("csv", "--csv"), ("stats", "--stats")))
 
 
 def run(args: argparse.Namespace) -> int:
     from facepuppet.live.frame import parse_address
     from facepuppet.live.session import LiveConfig, run_live
     from facepuppet.pipeline.gain import parse_gain
+    from facepuppet.pipeline.provenance import check_rig_backend, check_rig_profile
     from facepuppet.pipeline.rig import load_rig
     from facepuppet.pipeline.smoothing import parse_smoothing
     from facepuppet.pipeline.tracking import TrackerOptions
@@ -60,6 +63,9 @@ def run(args: argparse.Namespace) -> int:
         smoothing=parse_smoothing(args.smoothing), gain=parse_gain(args.gain), head_rotation=not args.no_head,
         pace=args.pace, max_frames=args.max_frames, status=not args.no_status)
     rig = load_rig(args.rig)
+    check_rig_backend(rig, args.backend, args.rig)
+    if args.backend == "color":
+        check_rig_profile(rig, args.profile, args.rig)
     with contextlib.ExitStack() as stack:
         senders = []
         if viewer is not None:

@@ -5,6 +5,10 @@ from __future__ import annotations
 import argparse
 import sys
 
+#: The mapper's own names of its inputs, as the user knows them.
+_WORDS = {"source_examples": "the key expressions", "source_base": "the neutral face",
+          "target_examples": "the key-models", "target_base": "the neutral mesh", "target_deltas": "the key-models"}
+
 
 def register(subparsers) -> None:
     p = subparsers.add_parser(
@@ -22,17 +26,32 @@ def register(subparsers) -> None:
     p.add_argument("--neutral", default=None, metavar="NAME",
                    help="OBJ folder: the neutral OBJ's file name (default neutral.obj)")
     p.add_argument("--mesh", default=None, metavar="NAME", help="glTF: read only this mesh")
-    p.set_defaults(run=run)
+    p.set_defaults(run=run,
+                   inputs=(("performer", "--performer"), ("character", "--character")),
+                   outputs=(("output", "-o"),))
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from facepuppet.demo.characters import load_character_arg
+    from facepuppet.errors import FacepuppetError
     from facepuppet.io.performer import load_performer
     from facepuppet.pipeline.rig import fit_rig, save_rig
 
     performer = load_performer(args.performer)
     character = load_character_arg(args.character, neutral=args.neutral, mesh=args.mesh)
-    rig, pairing = fit_rig(performer, character, method=args.method)
+    moved = np.abs(performer.examples - performer.neutral[None]).reshape(len(performer.examples), -1).max(axis=1)
+    if not (moved > 0).any():
+        raise FacepuppetError(f"--performer {args.performer}: no key expression differs from the neutral face")
+    try:
+        rig, pairing = fit_rig(performer, character, method=args.method)
+    except (FacepuppetError, ValueError) as e:
+        text = str(e)
+        for internal, told in _WORDS.items():
+            text = text.replace(internal, told)
+        raise FacepuppetError(f"--performer {args.performer} with --character {args.character}: cannot fit "
+                              f"the rig ({text})") from e
     if pairing.only_performer:
         print(f"facepuppet rig: warning: key expressions with no key-model of that name: "
               f"{', '.join(pairing.only_performer)}", file=sys.stderr)

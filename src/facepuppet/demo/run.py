@@ -279,11 +279,11 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
     -------
     DemoResult
     """
-    from facepuppet.capture.overlay import write_overlay_video
     from facepuppet.capture.tracking import track_media
     from facepuppet.demo.performer import render_performer
     from facepuppet.demo.script import calibration_script, performance_script
     from facepuppet.demo.toy import toy_character, toy_colors
+    from facepuppet.export.overlay import write_overlay_video
     from facepuppet.io.gltf import colored_glb
     from facepuppet.io.performer import load_performer, save_performer
     from facepuppet.io.track import save_track
@@ -319,7 +319,7 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
 
     t = time.perf_counter()
     if config.tracker == "color":
-        from facepuppet.capture.precompile import precompile
+        from facepuppet.capture.color.precompile import precompile
 
         # The tracker's kernels compile in other processes while the performer is rendered (on a fresh
         # machine; later they load from numba's cache). The profile's shape models read the lips, brows and
@@ -338,14 +338,16 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
     t = step("write videos", t)
 
     if config.tracker == "color":
-        from facepuppet.capture.color_tracker import ColorTracker, ColorTrackerConfig
-        from facepuppet.capture.profile import calibrate_profile, save_profile
+        from facepuppet.capture.color.config import ColorTrackerConfig, LandmarkConfig
+        from facepuppet.capture.color.profile import save_profile
+        from facepuppet.capture.color.tracker import ColorTracker
+        from facepuppet.capture.color.train import train_profile
 
         # Without the optional landmark model, whatever the environment names (with it the tracker would
         # place its first eye anchors on MediaPipe's eyes): the demo's result is the same on every machine.
-        options = ColorTrackerConfig(landmark_acquire=False, anchor_calibration=0.0)
-        profile = calibrate_profile(list(cal_frames), cal_curves, name="demo performer", progress=False,
-                                    tracker=options)
+        options = ColorTrackerConfig(landmarks=LandmarkConfig(enabled=False, anchor_calibration=0.0))
+        profile = train_profile(list(cal_frames), cal_curves, name="demo performer", progress=False,
+                                config=options)
         kernels.wait()
         save_profile(files["performer-profile.npz"], profile)
         t = step("train profile", t)

@@ -1,6 +1,6 @@
 """Side-by-side preview video: the input with its tracked curves on the left, the character on the right.
 
-Frame k of the preview is input frame k (with :func:`facepuppet.capture.overlay.draw_overlay`) beside the
+Frame k of the preview is input frame k (with :func:`facepuppet.export.overlay.draw_overlay`) beside the
 character posed with the weights of frame k (rendered on the CPU by :func:`facepuppet.export.render.render_mesh`),
 both at the input's height. The file is an MPEG-4 video (``mp4v``), written atomically: a reader never sees a
 half-written preview, and a failure leaves none.
@@ -18,7 +18,7 @@ import numpy as np
 from facepuppet._util.atomic import atomic_path
 from facepuppet.errors import FacepuppetError
 
-__all__ = ["PreviewWriter", "side_by_side", "open_preview", "write_preview"]
+__all__ = ["PreviewWriter", "side_by_side", "open_preview", "write_preview", "check_video"]
 
 _FOURCC = "mp4v"
 
@@ -69,6 +69,11 @@ def open_preview(path: str | os.PathLike, fps: float, size: tuple[int, int]) -> 
     import cv2
 
     w, h = (int(size[0]) // 2 * 2, int(size[1]) // 2 * 2)     # codecs want even sizes
+    try:
+        str(path).encode("utf-8")
+    except UnicodeEncodeError:
+        shown = str(path).encode("utf-8", "backslashreplace").decode("utf-8")
+        raise FacepuppetError(f"{shown}: the name is not valid UTF-8 (OpenCV cannot write it)") from None
     with atomic_path(path, suffix=".mp4") as tmp:
         writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*_FOURCC), float(fps), (w, h))
         if not writer.isOpened():
@@ -80,6 +85,28 @@ def open_preview(path: str | os.PathLike, fps: float, size: tuple[int, int]) -> 
             writer.release()
         if out.n_frames == 0:
             raise FacepuppetError(f"{path}: no frames to write")
+        check_video(tmp, out.n_frames, label=path)
+
+
+def check_video(path: str | os.PathLike, n_frames: int, *, label=None) -> None:
+    """Raise FacepuppetError naming ``label`` unless the video at ``path`` opens and holds ``n_frames`` frames.
+
+    OpenCV's writer reports no failure (a full disk, a lost folder): the file is read back after
+    ``release()`` instead, before it is renamed onto its name.
+    """
+    import cv2
+
+    label = path if label is None else label
+    size = Path(path).stat().st_size if Path(path).is_file() else 0
+    cap = cv2.VideoCapture(str(path)) if size > 0 else None
+    try:
+        count = int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) if cap is not None and cap.isOpened() else 0
+    finally:
+        if cap is not None:
+            cap.release()
+    if count < n_frames:
+        raise FacepuppetError(f"{label}: the video was not written completely ({count} of {n_frames} frames "
+                              f"readable, {size} bytes; disk full or not writable?)")
 
 
 def write_preview(path: str | os.PathLike, frames: Iterable[np.ndarray], fps: float, *,

@@ -9,12 +9,14 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import numpy as np
+
 from facepuppet.errors import FacepuppetError
 from facepuppet.io.character_type import Character
 from facepuppet.io.gltf import read_gltf, write_glb
 from facepuppet.io.obj import read_obj_character, write_obj_character
 
-__all__ = ["Character", "load_character", "save_character"]
+__all__ = ["Character", "load_character", "save_character", "check_character"]
 
 
 def load_character(path: str | os.PathLike, *, neutral: str | os.PathLike | None = None,
@@ -31,7 +33,31 @@ def load_character(path: str | os.PathLike, *, neutral: str | os.PathLike | None
     mesh : str or int, optional
         glTF only: read this mesh (name or index) instead of every mesh with morph targets.
     """
-    path = Path(path)
+    return check_character(_read(Path(path), neutral, mesh), path)
+
+
+def check_character(character: Character, label) -> Character:
+    """``character`` if it can be animated; else FacepuppetError naming ``label`` (its file) and what is wrong:
+    fewer than 3 vertices, NaN or infinite vertices (which key-model), every key-model equal to the neutral."""
+    neutral, targets = np.asarray(character.neutral), np.asarray(character.targets)
+    if len(neutral) < 3:
+        raise FacepuppetError(f"{label}: the mesh has {len(neutral)} vertices; a face needs at least 3")
+    if not np.isfinite(neutral).all():
+        raise FacepuppetError(f"{label}: the neutral mesh holds NaN or infinite vertices")
+    bad = [n for n, t in zip(character.names, targets, strict=True) if not np.isfinite(t).all()]
+    if bad:
+        raise FacepuppetError(f"{label}: key-model {bad[0]!r} holds NaN or infinite vertices"
+                              + (f" (and {len(bad) - 1} more)" if len(bad) > 1 else ""))
+    size = float(np.ptp(neutral, axis=0).max())
+    if len(targets) and size > 0 and np.abs(targets - neutral[None]).max() <= 1e-9 * size:
+        raise FacepuppetError(f"{label}: every key-model equals the neutral mesh (no morph target moves a "
+                              f"vertex; a node scaled to zero?)")
+    if size <= 0:
+        raise FacepuppetError(f"{label}: every vertex of the neutral mesh is at the same point")
+    return character
+
+
+def _read(path: Path, neutral, mesh) -> Character:
     suffix = path.suffix.lower()
     if path.is_dir():
         if mesh is not None:

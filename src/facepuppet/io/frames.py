@@ -3,6 +3,10 @@
 Every source yields RGB uint8 frames of shape (H, W, 3) lazily, knows its frame rate and frame size, and is a
 context manager. A camera is named ``camera:N`` (device N); tests stand a video file in for it with
 ``camera:path/to/video.mp4``.
+
+Frame times: a video file's source records the container's timestamp of the frame last read
+(``last_time``, seconds, from ``CAP_PROP_POS_MSEC``); :func:`frame_time` uses it where it differs from
+``index / fps`` by half a frame or more (variable-frame-rate video), else ``index / fps``.
 """
 
 from __future__ import annotations
@@ -15,7 +19,7 @@ import numpy as np
 
 from facepuppet.errors import FacepuppetError
 
-__all__ = ["MediaSource", "open_media", "IMAGE_SUFFIXES", "is_still"]
+__all__ = ["MediaSource", "open_media", "frame_time", "IMAGE_SUFFIXES", "is_still"]
 
 IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png", ".ppm", ".pgm", ".bmp", ".tif", ".tiff", ".webp")
 _STILL_FPS = 30.0
@@ -51,6 +55,7 @@ class MediaSource:
         self.is_camera = is_camera
         self._frames = frames
         self._closer = closer
+        self.last_time: float | None = None   # container timestamp of the frame last read, seconds
 
     def __iter__(self) -> Iterator[np.ndarray]:
         return self._frames
@@ -67,8 +72,21 @@ class MediaSource:
             self._closer = None
 
 
+def _opencv_name(path, label=None) -> str:
+    """``path`` as OpenCV takes it; FacepuppetError for a name that is not valid UTF-8 (OpenCV crashes on one)."""
+    text = str(path)
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        shown = text.encode("utf-8", "backslashreplace").decode("utf-8")
+        raise FacepuppetError(f"{label or shown}: the name is not valid UTF-8; rename the file") from None
+    return text
+
+
 def _read_image(path: Path) -> np.ndarray:
     import cv2
+
+    _opencv_name(path)
 
     bgr = cv2.imread(str(path), cv2.IMREAD_COLOR)
     if bgr is None:
@@ -95,15 +113,35 @@ def _open_video(path: str, label: str, camera: bool) -> MediaSource:
         count = None
     h, w = first.shape[:2]
 
+    first_ms = None if camera else cap.get(cv2.CAP_PROP_POS_MSEC)
+
     def frames() -> Iterator[np.ndarray]:
+        source.last_time = _seconds(first_ms)
         yield cv2.cvtColor(first, cv2.COLOR_BGR2RGB)
         while True:
             ok, bgr = cap.read()
             if not ok or bgr is None:
                 return
+            source.last_time = None if camera else _seconds(cap.get(cv2.CAP_PROP_POS_MSEC))
             yield cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
 
-    return MediaSource(label, fps, (w, h), count, frames(), closer=cap.release, is_camera=camera)
+    source = MediaSource(label, fps, (w, h), count, frames(), closer=cap.release, is_camera=camera)
+    return source
+
+
+def _seconds(ms) -> float | None:
+    return float(ms) / 1000.0 if ms is not None and np.isfinite(ms) and ms >= 0 else None
+
+
+def frame_time(index: int, fps: float, container: float | None, previous: float | None) -> float:
+    """Time of frame ``index`` in seconds: the container's timestamp ``container`` where it differs from
+    ``index / fps`` by half a frame or more and keeps time increasing after ``previous``, else ``index / fps``."""
+    nominal = index / float(fps)
+    if container is None or abs(container - nominal) < 0.5 / float(fps):
+        return nominal
+    if previous is not None and container <= previous:
+        return max(nominal, previous + 1e-6)
+    return float(container)
 
 
 def open_media(path: str | os.PathLike) -> MediaSource:
@@ -114,7 +152,7 @@ def open_media(path: str | os.PathLike) -> MediaSource:
     FacepuppetError
         If the medium is missing, unreadable, empty, or of no known kind; the message names it.
     """
-    label = str(path)
+    label = _opencv_name(path)
     if label.startswith("camera:"):
         return _open_video(label[len("camera:"):], label, camera=True)
     p = Path(path)

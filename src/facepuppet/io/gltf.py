@@ -17,13 +17,13 @@ import base64
 import dataclasses
 import logging
 import os
-import urllib.parse
 from pathlib import Path
 
 import numpy as np
 
 from facepuppet.errors import FacepuppetError
 from facepuppet.io.character_type import Character
+from facepuppet.io.external import read_external
 from facepuppet.io.glb import ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, GltfBuilder, vertex_normals
 from facepuppet.io.keymodels import keymodel_binds, morph_names
 from facepuppet.io.scene import load_scene
@@ -36,6 +36,8 @@ _DTYPE = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: 
 #: Divisor of normalised integer components (glTF 2.0 §3.11: signed values clamp at -1).
 _NORM = {5120: 127.0, 5121: 255.0, 5122: 32767.0, 5123: 65535.0, 5125: 4294967295.0}
 _WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}
+#: Most items one accessor may hold (vertices, indices): a bound on what a damaged file can ask to allocate.
+_MAX_COUNT = 50_000_000
 
 
 def read_gltf(path: str | os.PathLike, *, mesh: str | int | None = None) -> Character:
@@ -70,18 +72,22 @@ def read_gltf(path: str | os.PathLike, *, mesh: str | int | None = None) -> Char
     reader = _Reader(gltf, path)
     if not gltf.meshes:
         raise FacepuppetError(f"{path}: no mesh in the file")
-    instances = _mesh_instances(gltf)
-    if mesh is not None:
-        index = _find_mesh(gltf, mesh, path)
-        chosen = [(m, mat) for m, mat in instances if m == index] or [(index, np.eye(4))]
-    else:
-        chosen = [(m, mat) for m, mat in instances if any(p.targets for p in gltf.meshes[m].primitives)]
-        if not chosen:
-            raise FacepuppetError(f"{path}: no mesh has morph targets (key-models)")
-    parts = [reader.mesh(m, mat) for m, mat in chosen]
-    if mesh is None:
-        parts = _with_expressions(scene.doc, [m for m, _ in chosen], parts)
-    character = _join(parts, name=_character_name(gltf, chosen, path), path=path)
+    try:
+        instances = _mesh_instances(gltf)
+        if mesh is not None:
+            index = _find_mesh(gltf, mesh, path)
+            chosen = [(m, mat) for m, mat in instances if m == index] or [(index, np.eye(4))]
+        else:
+            chosen = [(m, mat) for m, mat in instances if any(p.targets for p in gltf.meshes[m].primitives)]
+            if not chosen:
+                raise FacepuppetError(f"{path}: no mesh has morph targets (key-models)")
+        parts = [reader.mesh(m, mat) for m, mat in chosen]
+        if mesh is None:
+            parts = _with_expressions(scene.doc, [m for m, _ in chosen], parts)
+        character = _join(parts, name=_character_name(gltf, chosen, path), path=path)
+    except (IndexError, KeyError, TypeError, AttributeError) as e:   # an index to nothing, a missing field
+        raise FacepuppetError(f"{path}: damaged glTF ({type(e).__name__}: {e}; an index points at nothing "
+                              f"or a required field is missing)") from e
     return dataclasses.replace(character, source=scene.glb())
 
 
@@ -193,11 +199,7 @@ class _Reader:
                 except (IndexError, ValueError) as e:
                     raise FacepuppetError(f"{self.path}: buffer {index} has a bad data URI") from e
             else:
-                file = self.path.parent / urllib.parse.unquote(buf.uri)
-                try:
-                    data = file.read_bytes()
-                except OSError as e:
-                    raise FacepuppetError(f"{self.path}: cannot read buffer file {file} ({e.strerror})") from e
+                data = read_external(self.path, buf.uri, buf.byteLength, f"buffer {index}")
             if len(data) < buf.byteLength:
                 raise FacepuppetError(f"{self.path}: buffer {index} holds {len(data)} bytes, "
                                       f"needs {buf.byteLength}")
@@ -205,11 +207,13 @@ class _Reader:
         return self._buffers[index]
 
     def _view(self, view_index: int, offset: int, count: int, dtype, width: int, stride: int | None = None):
-        view = self.gltf.bufferViews[view_index]
-        data = self.buffer(view.buffer)
+        view = self.gltf.bufferViews[_index(view_index, self.gltf.bufferViews, "buffer view", self.path)]
+        data = self.buffer(_index(view.buffer, self.gltf.buffers, "buffer", self.path))
         start = (view.byteOffset or 0) + offset
         item = np.dtype(dtype).itemsize * width
         stride = stride or view.byteStride or item
+        if start < 0 or count < 0 or stride <= 0 or offset < 0:
+            raise FacepuppetError(f"{self.path}: buffer view {view_index} has a negative offset, count or stride")
         end = start + (count - 1) * stride + item if count else start
         if end > (view.byteOffset or 0) + view.byteLength or end > len(data):
             raise FacepuppetError(f"{self.path}: accessor data runs past buffer view {view_index}")
@@ -219,7 +223,9 @@ class _Reader:
 
     def accessor(self, index: int) -> np.ndarray:
         """Decode accessor ``index`` to an (N, k) array: float64 for float/normalised data, else int64."""
-        acc = self.gltf.accessors[index]
+        acc = self.gltf.accessors[_index(index, self.gltf.accessors, "accessor", self.path)]
+        if not isinstance(acc.count, int) or not 0 <= acc.count <= _MAX_COUNT:
+            raise FacepuppetError(f"{self.path}: accessor {index} has count {acc.count!r} (0 to {_MAX_COUNT})")
         if acc.componentType not in _DTYPE or acc.type not in _WIDTH:
             raise FacepuppetError(f"{self.path}: accessor {index} has unsupported type "
                                   f"{acc.type}/{acc.componentType}")
@@ -307,6 +313,13 @@ class _Reader:
         tri = np.stack([idx[k], idx[k + 1], idx[k + 2]], axis=1)  # strip: flip every other triangle
         tri[1::2, [1, 2]] = tri[1::2, [2, 1]]
         return tri
+
+
+def _index(i, items, what: str, path: Path) -> int:
+    """``i`` if it indexes ``items`` (a glTF array), else FacepuppetError naming the file."""
+    if not isinstance(i, int) or isinstance(i, bool) or not 0 <= i < len(items or ()):
+        raise FacepuppetError(f"{path}: {what} {i!r} does not exist (the file has {len(items or ())})")
+    return i
 
 
 def _target_names(extras) -> list[str] | None:

@@ -15,8 +15,6 @@ key                shape        meaning
 ``noise``          (P, D)       optional: noise scale of each coordinate as the tracker gives it (> 0)
 ``nuisance``       (K, P, D)    optional: feature points of frames whose motion is not an expression (a
                                 neutral face while the head moves); the mapping discounts that motion
-``tracker.backend`` ()          optional: the tracker the key expressions were captured with (``color``...)
-``tracker.profile`` ()          optional: the file name of the colour tracker's performer profile used
 =================  ===========  ==========================================================================
 
 Feature points are in head coordinates (head pose removed), the same space as the track file's ``points``.
@@ -60,16 +58,16 @@ class Performer:
         Feature points of frames whose motion away from ``neutral`` is no expression (the neutral face while
         the head moves, or what the tracker adds that no key expression explains): the mapping discounts
         the directions they move in (the mapper's ``nuisance`` option).
-    backend : str or None
-        The tracker backend the key expressions were captured with (file member ``tracker.backend``).
-    profile : str or None
-        The file name of the colour tracker's performer profile they were captured with (``tracker.profile``).
     frames : dict of str -> (int, int)
         Where the key expressions came from: for each name (``neutral`` included), the frames
         ``[start, stop)`` of the footage that were averaged. Not stored in the file (empty when loaded).
     warnings : tuple of str
         What the checks of :mod:`facepuppet.pipeline.examples.checks` found, and the key-models left out
         (messages starting with ``"left out "``). Not stored in the file (empty when loaded).
+    backend : str or None
+        The tracker that made the feature points (``"color"``, ``"mediapipe"``); None when unknown.
+    profile_hash : str or None
+        Content hash of the colour tracker's performer profile used; None when none or unknown.
     """
 
     neutral: np.ndarray
@@ -78,10 +76,10 @@ class Performer:
     point_names: tuple[str, ...] | None = None
     noise: np.ndarray | None = None
     nuisance: np.ndarray | None = None
-    backend: str | None = None
-    profile: str | None = None
     frames: dict[str, tuple[int, int]] = field(default_factory=dict, compare=False)
     warnings: tuple[str, ...] = field(default=(), compare=False)
+    backend: str | None = None
+    profile_hash: str | None = None
 
     def __post_init__(self) -> None:
         n, e = np.shape(self.neutral), np.shape(self.examples)
@@ -111,6 +109,11 @@ class Performer:
                                  f"got shape {z.shape}")
 
 
+#: The members a key expressions file may hold.
+PERFORMER_KEYS = ("format", "version", "neutral", "examples", "names", "point_names", "noise", "nuisance",
+                  "backend", "profile_hash")
+
+
 def save_performer(path: str | os.PathLike, performer: Performer) -> None:
     """Write ``performer`` to ``path`` (.npz, no pickle), atomically."""
     arrays = {
@@ -126,16 +129,17 @@ def save_performer(path: str | os.PathLike, performer: Performer) -> None:
         arrays["noise"] = np.asarray(performer.noise, dtype=np.float64)
     if performer.nuisance is not None:
         arrays["nuisance"] = np.asarray(performer.nuisance, dtype=np.float64)
-    for key, value in (("tracker.backend", performer.backend), ("tracker.profile", performer.profile)):
-        if value is not None:
-            arrays[key] = np.asarray(str(value))
+    if performer.backend is not None:
+        arrays["backend"] = np.asarray(performer.backend)
+    if performer.profile_hash is not None:
+        arrays["profile_hash"] = np.asarray(performer.profile_hash)
     with atomic_path(path, suffix=".npz") as tmp:
         np.savez_compressed(tmp, **arrays)
 
 
 def load_performer(path: str | os.PathLike) -> Performer:
     """Read a key expressions file; anything wrong with it raises FacepuppetError naming the file."""
-    arrays = read_npz(path, "key expressions file")
+    arrays = read_npz(path, "key expressions file", known=PERFORMER_KEYS)
     check_format(arrays, path, "key expressions file", PERFORMER_FORMAT, PERFORMER_VERSION)
     missing = [k for k in ("neutral", "examples", "names") if k not in arrays]
     if missing:
@@ -149,8 +153,8 @@ def load_performer(path: str | os.PathLike) -> Performer:
             point_names=None if point_names is None else tuple(str(n) for n in np.atleast_1d(point_names)),
             noise=arrays["noise"].astype(np.float64) if "noise" in arrays else None,
             nuisance=arrays["nuisance"].astype(np.float64) if "nuisance" in arrays else None,
-            backend=str(arrays["tracker.backend"]) if "tracker.backend" in arrays else None,
-            profile=str(arrays["tracker.profile"]) if "tracker.profile" in arrays else None,
+            backend=str(arrays["backend"]) if "backend" in arrays else None,
+            profile_hash=str(arrays["profile_hash"]) if "profile_hash" in arrays else None,
         )
-    except (ValueError, TypeError) as e:
+    except (ValueError, TypeError, IndexError, KeyError) as e:
         raise FacepuppetError(f"{path}: invalid key expressions file ({e})") from e

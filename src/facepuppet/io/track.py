@@ -17,10 +17,29 @@ from facepuppet._util.atomic import atomic_path
 from facepuppet._util.npz import read_npz
 from facepuppet.errors import FacepuppetError
 
-__all__ = ["Track", "save_track", "load_track", "TRACK_KEYS"]
+__all__ = ["Track", "save_track", "load_track", "track_scalars", "check_fps", "TRACK_KEYS", "TRACK_EXTRAS",
+           "PROVENANCE_KEYS", "FPS_RANGE"]
 
 TRACK_KEYS = ("fps", "frame_size", "valid", "curves", "curve_names", "points", "point_names", "rotation",
               "translation", "backend")
+#: The backends' further arrays a track file may hold (MediaPipe's blendshape scores and their names).
+TRACK_EXTRAS = ("blendshapes", "blendshape_names")
+#: Where the track came from (optional; files without them load with ``media = profile_hash = None``).
+PROVENANCE_KEYS = ("media_size", "media_frames", "media_hash", "profile_hash", "times")
+#: Frame rates a track may have, frames per second (lowest, highest).
+FPS_RANGE = (0.1, 1000.0)
+
+
+def check_fps(fps: float, label: str) -> float:
+    """``fps`` as a float if finite and within :data:`FPS_RANGE`, else FacepuppetError naming ``label``."""
+    try:
+        value = float(fps)
+    except (TypeError, ValueError):
+        raise FacepuppetError(f"{label}: frame rate {fps!r} is not a number") from None
+    lo, hi = FPS_RANGE
+    if not (np.isfinite(value) and lo <= value <= hi):
+        raise FacepuppetError(f"{label}: frame rate {value:g} fps is outside {lo:g} to {hi:g}")
+    return value
 
 
 @dataclass(frozen=True)
@@ -40,6 +59,14 @@ class Track:
     translation : (F, 3) float, head origin in camera coordinates
     backend : str
     extras : dict of str -> ndarray, further per-frame arrays a backend adds (for example ``blendshapes``)
+    media : dict or None
+        The media file tracked: ``{"size": bytes, "frames": int, "hash": str}``
+        (:func:`facepuppet._util.digest.media_record`); None when unknown (a folder, a camera, an older file).
+    profile_hash : str or None
+        Content hash of the colour tracker's performer profile used, None when none or unknown.
+    times : (F,) float or None
+        Each frame's time in seconds where a variable-frame-rate video's timestamps gave it; None means
+        ``index / fps``.
     """
 
     fps: float
@@ -53,9 +80,16 @@ class Track:
     translation: np.ndarray
     backend: str
     extras: dict | None = None
+    media: dict | None = None
+    profile_hash: str | None = None
+    times: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         f = len(self.valid)
+        if self.times is not None:
+            t = np.asarray(self.times, dtype=float)
+            if t.shape != (f,) or not np.isfinite(t).all() or (f > 1 and not np.all(np.diff(t) > 0)):
+                raise ValueError(f"track times must be {f} finite, increasing seconds")
         checks = {
             "curves": (self.curves, (f, len(self.curve_names), 4, 2)),
             "points": (self.points, (f, len(self.point_names), 3)),
@@ -71,22 +105,40 @@ class Track:
         return len(self.valid)
 
 
+def track_scalars(*, fps: float, frame_size, curve_names, point_names, backend: str, media: dict | None = None,
+                  profile_hash: str | None = None) -> dict[str, np.ndarray]:
+    """The arrays of a track file that are not per frame, as stored (shared with the streaming writer)."""
+    arrays = {
+        "fps": np.float64(fps),
+        "frame_size": np.asarray(frame_size, dtype=np.int64),
+        "curve_names": np.asarray(curve_names, dtype=str),
+        "point_names": np.asarray(point_names, dtype=str),
+        "backend": np.asarray(backend, dtype=str),
+    }
+    if media is not None:
+        arrays.update(media_size=np.int64(media["size"]), media_frames=np.int64(media["frames"]),
+                      media_hash=np.asarray(str(media["hash"])))
+    if profile_hash is not None:
+        arrays["profile_hash"] = np.asarray(str(profile_hash))
+    return arrays
+
+
 def save_track(path: str | os.PathLike, track: Track) -> None:
     """Write ``track`` to ``path`` (.npz, no pickle), atomically."""
-    arrays = {
-        "fps": np.float64(track.fps),
-        "frame_size": np.asarray(track.frame_size, dtype=np.int64),
+    arrays = track_scalars(fps=track.fps, frame_size=track.frame_size, curve_names=track.curve_names,
+                           point_names=track.point_names, backend=track.backend, media=track.media,
+                           profile_hash=track.profile_hash)
+    arrays.update({
         "valid": np.asarray(track.valid, dtype=bool),
         "curves": np.asarray(track.curves, dtype=np.float32),
-        "curve_names": np.asarray(track.curve_names, dtype=str),
         "points": np.asarray(track.points, dtype=np.float32),
-        "point_names": np.asarray(track.point_names, dtype=str),
         "rotation": np.asarray(track.rotation, dtype=np.float32),
         "translation": np.asarray(track.translation, dtype=np.float32),
-        "backend": np.asarray(track.backend, dtype=str),
-    }
+    })
+    if track.times is not None:
+        arrays["times"] = np.asarray(track.times, dtype=np.float64)
     for key, value in (track.extras or {}).items():
-        if key in arrays:
+        if key in arrays or key in PROVENANCE_KEYS:
             raise ValueError(f"track extra {key!r} clashes with a standard key")
         arrays[key] = np.asarray(value)
     with atomic_path(path, suffix=".npz") as tmp:
@@ -95,14 +147,24 @@ def save_track(path: str | os.PathLike, track: Track) -> None:
 
 def load_track(path: str | os.PathLike) -> Track:
     """Read a track file; a missing, corrupt or incomplete file raises FacepuppetError naming it."""
-    arrays = read_npz(path, "track file")
+    arrays = read_npz(path, "track file", known=TRACK_KEYS + TRACK_EXTRAS + PROVENANCE_KEYS)
     missing = [k for k in TRACK_KEYS if k not in arrays]
     if missing:
         raise FacepuppetError(f"{path}: not a track file (missing {', '.join(missing)})")
-    extras = {k: v for k, v in arrays.items() if k not in TRACK_KEYS}
+    extras = {k: v for k, v in arrays.items() if k in TRACK_EXTRAS}
+    media = None
+    if all(k in arrays for k in ("media_size", "media_frames", "media_hash")):
+        media = {"size": int(arrays["media_size"]), "frames": int(arrays["media_frames"]),
+                 "hash": str(arrays["media_hash"])}
     try:
+        fps = check_fps(arrays["fps"], f"{path}")
+        if arrays["fps"].size != 1 or arrays["frame_size"].shape != (2,) or arrays["valid"].ndim != 1:
+            raise ValueError("fps, frame_size or valid has the wrong shape")
+        for key in ("curves", "points", "rotation", "translation"):
+            if arrays[key].dtype.kind not in "fiu":
+                raise ValueError(f"{key} does not hold numbers")
         return Track(
-            fps=float(arrays["fps"]),
+            fps=fps,
             frame_size=arrays["frame_size"].astype(int),
             valid=arrays["valid"].astype(bool),
             curves=arrays["curves"].astype(float),
@@ -113,6 +175,9 @@ def load_track(path: str | os.PathLike) -> Track:
             translation=arrays["translation"].astype(float),
             backend=str(arrays["backend"]),
             extras=extras or None,
+            media=media,
+            profile_hash=str(arrays["profile_hash"]) if "profile_hash" in arrays else None,
+            times=arrays["times"].astype(float) if "times" in arrays else None,
         )
-    except ValueError as e:
+    except (ValueError, TypeError, IndexError, KeyError) as e:
         raise FacepuppetError(f"{path}: inconsistent track file ({e})") from e

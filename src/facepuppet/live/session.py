@@ -248,9 +248,6 @@ def run_live(source: str | os.PathLike, rig, *, config: LiveConfig | None = None
         from facepuppet.pipeline.rig import load_rig
 
         rig, rig_label = load_rig(rig), str(rig)
-    from facepuppet.pipeline.animate import check_rig_tracker
-
-    check_rig_tracker(rig, tracker_options.backend, tracker_options.profile, rig_label)
     mapper = FrameMapper(rig, smoothing=config.smoothing, gain=config.gain, rig_label=rig_label)
 
     def rezero() -> None:
@@ -260,9 +257,19 @@ def run_live(source: str | os.PathLike, rig, *, config: LiveConfig | None = None
 
     with contextlib.ExitStack() as stack:
         media = stack.enter_context(open_media(source)) if isinstance(source, (str, os.PathLike)) else source
-        live = LiveSource(media, pace=config.pace, max_frames=config.max_frames)
         tracker = make_tracker_for(tracker_options, source)
         stack.callback(tracker.close)
+
+        def warmup(rgb) -> None:
+            """A throwaway tracker on the first frame: the compiled kernels load before the clock starts."""
+            spare = make_tracker_for(tracker_options, source)
+            try:
+                spare.track(rgb, 0)
+            finally:
+                spare.close()
+
+        live = LiveSource(media, pace=config.pace, max_frames=config.max_frames,
+                          warmup=warmup if config.pace == "realtime" else None)
         sending = _SenderOutput(senders, rig.names, config.head_rotation)
         outputs: list = [sending] if senders else []
         fps = float(media.fps)

@@ -17,6 +17,7 @@ called (from a signal handler or another thread); a camera that stops delivering
 
 from __future__ import annotations
 
+import itertools
 import threading
 import time
 from collections.abc import Iterator
@@ -42,6 +43,9 @@ class LiveSource:
     pace : {"realtime", "fast"}
     max_frames : int, optional
         Stop after this many frames have been read from the source.
+    warmup : callable(rgb), optional
+        Called once with the first frame before the clock starts (a throwaway tracker loading its compiled
+        kernels), so the time it takes drops no frame; the first frame is then handed on as usual.
 
     Attributes
     ----------
@@ -53,7 +57,7 @@ class LiveSource:
         Why the source ended early (a camera that stopped), else None.
     """
 
-    def __init__(self, source, *, pace: str = "realtime", max_frames: int | None = None) -> None:
+    def __init__(self, source, *, pace: str = "realtime", max_frames: int | None = None, warmup=None) -> None:
         if pace not in PACES:
             raise ValueError(f"--pace: choose from {', '.join(PACES)}, got {pace!r}")
         if max_frames is not None and max_frames < 1:
@@ -61,6 +65,7 @@ class LiveSource:
         self.source = source
         self.pace = pace
         self.max_frames = max_frames
+        self.warmup = warmup
         self.read = 0
         self.dropped = 0
         self.error: str | None = None
@@ -86,10 +91,14 @@ class LiveSource:
     def _frames(self) -> Iterator[tuple[int, float, object]]:
         fps = float(self.source.fps)
         camera = bool(getattr(self.source, "is_camera", False))
-        start = time.perf_counter()
+        start = None
         for k, rgb in enumerate(self.source):
             if self._stop.is_set() or (self.max_frames is not None and k >= self.max_frames):
                 return
+            if k == 0 and self.warmup is not None:
+                self.warmup(rgb)
+            if start is None:
+                start = time.perf_counter()
             self.read += 1
             t = time.perf_counter() - start if camera else k / fps
             yield k, t, rgb
@@ -104,7 +113,12 @@ class LiveSource:
 
     def _realtime(self) -> Iterator[SourceFrame]:
         camera = bool(getattr(self.source, "is_camera", False))
-        reader = threading.Thread(target=self._read, name="facepuppet-live-reader", daemon=True)
+        frames = self._frames()
+        first = next(frames, None)                   # here, before the reader starts: the warm-up, if any
+        if first is None:
+            return
+        reader = threading.Thread(target=self._read, args=(first, frames), name="facepuppet-live-reader",
+                                  daemon=True)
         reader.start()
         try:
             while True:
@@ -125,12 +139,12 @@ class LiveSource:
             self._stop.set()
             reader.join(timeout=1.0)
 
-    def _read(self) -> None:
+    def _read(self, first: tuple, rest: Iterator) -> None:
         camera = bool(getattr(self.source, "is_camera", False))
         fps = float(self.source.fps)
-        start = time.perf_counter()
+        start = time.perf_counter()                  # the clock starts at the first frame, after the warm-up
         try:
-            for k, t, rgb in self._frames():
+            for k, t, rgb in itertools.chain([first], rest):
                 if not camera:                       # a file stands in for a camera: frame k is due at k / fps
                     due = start + k / fps
                     while not self._stop.is_set() and (wait := due - time.perf_counter()) > 0:

@@ -448,9 +448,10 @@ class ExpressionMapper:
         """
         from facepuppet._util.npz import read_npz
 
-        arrays = read_npz(path, "mapper file")
+        arrays = read_npz(path, "mapper file", known=_REQUIRED + ("names", "point_scale", "whiten"),
+                          prefixes=("option_", _SOLVER_PREFIX))
         if not arrays:
-            raise FacepuppetError(f"{path}: not a mapper file")
+            raise FacepuppetError(f"{path}: not a mapper file (not an ExpressionMapper: no member it knows)")
         try:
             return cls.from_arrays(arrays)
         except FacepuppetError as e:

@@ -30,6 +30,7 @@ from facepuppet.errors import FacepuppetError
 from facepuppet.io.track import Track
 from facepuppet.pipeline.gain import GainConfig
 from facepuppet.pipeline.outputs import CsvOutput, GlbOutput, PreviewOutput, check_suffix
+from facepuppet.pipeline.provenance import check_rig_backend, check_rig_profile, check_track_media
 from facepuppet.pipeline.smoothing import SmoothingConfig
 from facepuppet.pipeline.stream import (
     FrameMapper,
@@ -111,18 +112,6 @@ def check_rig_matches(rig, track: Track, rig_label: str = "rig") -> None:
             f"{rig_label}: made for other feature points ({len(ours)}, e.g. {ours[0]!r}) than the "
             f"{track.backend} tracker gives ({len(track.point_names)}, e.g. {track.point_names[0]!r}); "
             f"calibrate and rig again with this tracker")
-
-
-def check_rig_tracker(rig, backend: str | None, profile=None, rig_label: str = "rig") -> None:
-    """Raise FacepuppetError when ``backend`` is not the tracker the rig's key expressions were captured with;
-    log a warning when the colour tracker's ``profile`` file name differs from the one they were captured with."""
-    if rig.backend and backend and rig.backend != backend:
-        raise FacepuppetError(f"{rig_label}: its key expressions were captured with the {rig.backend} tracker, "
-                              f"not {backend}; animate with --backend {rig.backend}, or calibrate and rig again "
-                              f"with {backend}")
-    if rig.profile and profile is not None and Path(profile).name != rig.profile:
-        log.warning("%s: its key expressions were captured with the profile %s, not %s", rig_label, rig.profile,
-                    Path(profile).name)
 
 
 def map_track(rig, track: Track, config: AnimateConfig | None = None, *, rig_label: str = "rig") -> Animation:
@@ -210,17 +199,21 @@ def animate(media: str | os.PathLike | None, rig, *, glb: str | os.PathLike | No
         raise ValueError("--preview needs the input media (the frames drawn on the left)")
     if track is None and media is None:
         raise ValueError("give the media to track, or --track")
+    track_arg = track
     if track is not None and not isinstance(track, Track):
         from facepuppet.io.track import load_track
 
         track = load_track(track)
-    tracker_options = config.tracker or TrackerOptions()
-    check_rig_tracker(rig, track.backend if track is not None else tracker_options.backend,
-                      None if track is not None else tracker_options.profile, rig_label)
     if track is not None:
         check_rig_matches(rig, track, rig_label)
+        check_rig_backend(rig, track.backend, rig_label, what="a track made with")
+        check_track_media(track, media, "--track" if not isinstance(track_arg, Track) else "track")
         if not track.valid.any():
             raise FacepuppetError(f"{media or 'track'}: no face was tracked in any frame")
+    else:
+        check_rig_backend(rig, config.tracker.backend, rig_label)
+        if config.tracker.backend == "color":
+            check_rig_profile(rig, config.tracker.profile, rig_label)
     mapper = FrameMapper(rig, smoothing=config.smoothing, gain=config.gain, rig_label=rig_label)
     t0 = time.perf_counter()
     with contextlib.ExitStack() as stack:
@@ -277,23 +270,39 @@ def track_frames(track: Track, source=None, *, max_frames: int | None = None) ->
                   if np.ndim(v) and len(v) == track.n_frames} or None
         feats = FrameFeatures(bool(track.valid[k]), track.curves[k], track.rotation[k], track.translation[k],
                               track.points[k], extras)
-        yield SourceFrame(k, k / float(track.fps), rgb, time.perf_counter(), feats)
+        t = k / float(track.fps) if track.times is None else float(track.times[k])
+        yield SourceFrame(k, t, rgb, time.perf_counter(), feats)
 
 
 class _Recorder:
     """The output that keeps the take's weights (and, if asked, its features) for the returned Animation."""
 
+    #: Rows per block of the weights kept (blocks of plain float64: 16 bytes a weight, no object per frame).
+    BLOCK = 4096
+
     def __init__(self, keep_track: bool) -> None:
         self.keep_track = keep_track
-        self.raw: list[np.ndarray] = []
+        self.raw: list[np.ndarray] = []       # blocks of (BLOCK, M), the last one filled up to _fill
         self.weights: list[np.ndarray] = []
+        self._fill = self.BLOCK
         self.features: list[FrameFeatures] = []
 
     def write(self, frame: StreamFrame) -> None:
-        self.raw.append(frame.raw)
-        self.weights.append(frame.weights)
+        if self._fill == self.BLOCK:
+            m = len(frame.weights)
+            self.raw.append(np.empty((self.BLOCK, m)))
+            self.weights.append(np.empty((self.BLOCK, m)))
+            self._fill = 0
+        self.raw[-1][self._fill] = frame.raw
+        self.weights[-1][self._fill] = frame.weights
+        self._fill += 1
         if self.keep_track:
             self.features.append(frame.features)
+
+    def _rows(self, blocks: list[np.ndarray], m: int) -> np.ndarray:
+        if not blocks:
+            return np.zeros((0, m))
+        return np.concatenate([*blocks[:-1], blocks[-1][:self._fill]]).reshape(-1, m)
 
     def finish(self) -> None:
         pass
@@ -306,8 +315,8 @@ class _Recorder:
             track = features_to_track(self.features, fps=fps, frame_size=frame_size, backend=backend or "",
                                       static_extras=static_extras)
         m = len(rig.names)
-        raw = np.array(self.raw).reshape(-1, m)
-        return Animation(np.array(self.weights).reshape(-1, m), raw, tuple(rig.names), float(fps), track,
+        raw = self._rows(self.raw, m)
+        return Animation(self._rows(self.weights, m), raw, tuple(rig.names), float(fps), track,
                          valid_frames=np.isfinite(raw).all(axis=1))
 
 

@@ -17,7 +17,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["GainConfig", "parse_gain", "gain_vector", "apply_gain"]
+__all__ = ["GainConfig", "parse_gain", "gain_vector", "apply_gain", "MAX_GAIN"]
+
+
+#: Largest expression gain accepted: beyond it every weight is clipped at once (a typing slip, not a choice).
+MAX_GAIN = 100.0
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -43,6 +47,8 @@ class GainConfig:
         for name, g in [("gain", self.gain), *self.per_key.items()]:
             if not np.isfinite(g):
                 raise ValueError(f"--gain {name}: must be a finite number, got {g}")
+            if not 0.0 <= g <= MAX_GAIN:
+                raise ValueError(f"--gain {name}: must be between 0 and {MAX_GAIN:g}, got {g:g}")
 
 
 def parse_gain(specs: Iterable[str] | None) -> GainConfig:

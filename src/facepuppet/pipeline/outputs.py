@@ -204,7 +204,7 @@ class PreviewOutput:
         self._writer = None
 
     def write(self, frame: StreamFrame) -> None:
-        from facepuppet.capture.overlay import draw_overlay
+        from facepuppet.export.overlay import draw_overlay
         from facepuppet.export.preview import open_preview, side_by_side
         from facepuppet.export.render import render_mesh
 

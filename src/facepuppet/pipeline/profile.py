@@ -48,7 +48,8 @@ def train_profile_on_media(media: str | os.PathLike, path: str | os.PathLike, *,
     Track
         The MediaPipe track used as labels (its blendshape scores serve ``--auto``).
     """
-    from facepuppet.capture.profile import calibrate_profile, save_profile
+    from facepuppet.capture.color.profile import save_profile
+    from facepuppet.capture.color.train import train_profile
     from facepuppet.io.frames import open_media
 
     if labels is None:
@@ -63,6 +64,6 @@ def train_profile_on_media(media: str | os.PathLike, path: str | os.PathLike, *,
                 frames.append(rgb)
             if k >= keep[-1]:
                 break
-    profile = calibrate_profile(frames, labels.curves[keep[:len(frames)]], name=Path(media).stem)
+    profile = train_profile(frames, labels.curves[keep[:len(frames)]], name=Path(media).stem)
     save_profile(path, profile)
     return labels

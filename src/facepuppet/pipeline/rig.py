@@ -21,8 +21,6 @@ key                        shape       meaning
 ``character.source``       (B,) uint8  optional (version 2): the character's whole glTF scene as one GLB
 ``names``                  (M,)        the paired key-model names, in the mapper's example order
 ``point_names``            (P,)        the performer's feature point names (may be empty)
-``tracker.backend``        ()          optional: the tracker the key expressions were captured with
-``tracker.profile``        ()          optional: the file name of the colour tracker's profile they used
 =========================  ==========  ================================================================
 
 The character is kept whole, so an exported GLB has all its morph targets; the mapper's M weights go to the
@@ -52,6 +50,8 @@ __all__ = ["Rig", "Pairing", "pair_by_name", "fit_rig", "save_rig", "load_rig", 
 RIG_FORMAT = "facepuppet-rig"
 RIG_VERSION = 2
 _MAPPER, _CHAR = "mapper.", "character."
+#: The fitted mapping's arrays that hold only finite numbers in a sound rig.
+_MAPPER_NUMBERS = ("source_base", "source_examples", "target_base", "target_deltas", "point_scale", "whiten")
 
 
 @dataclass(frozen=True)
@@ -68,9 +68,11 @@ class Rig:
         Paired key-model names, in the mapper's example order.
     point_names : tuple of P str
         The performer's feature point names (empty if the performer file had none).
-    backend, profile : str or None
-        The tracker backend and profile file name the key expressions were captured with (None: unknown);
-        ``animate`` with another backend refuses, with another profile warns.
+    backend : str or None
+        The tracker the key expressions were captured with; None when unknown (an older file).
+    profile_hash : str or None
+        Content hash of the colour tracker's performer profile they were captured with; None when none or
+        unknown.
     """
 
     mapper: Any
@@ -78,7 +80,7 @@ class Rig:
     names: tuple[str, ...]
     point_names: tuple[str, ...] = ()
     backend: str | None = None
-    profile: str | None = None
+    profile_hash: str | None = None
 
     def __post_init__(self) -> None:
         unknown = [n for n in self.names if n not in self.character.names]
@@ -169,7 +171,7 @@ def fit_rig(performer: Performer, character: Character, *, method: str | None = 
     mapper = ExpressionMapper.fit(performer.neutral, examples, character.neutral, targets, **options)
     rig = Rig(mapper=mapper, character=character, names=pairing.names,
               point_names=tuple(performer.point_names or ()), backend=performer.backend,
-              profile=performer.profile)
+              profile_hash=performer.profile_hash)
     return rig, pairing
 
 
@@ -191,11 +193,11 @@ def save_rig(path: str | os.PathLike, rig: Rig) -> None:
         "names": np.asarray(rig.names, dtype=str),
         "point_names": np.asarray(rig.point_names, dtype=str),
     }
+    for key in ("backend", "profile_hash"):
+        if getattr(rig, key) is not None:
+            arrays[key] = np.asarray(str(getattr(rig, key)))
     if c.faces is not None:
         arrays[_CHAR + "faces"] = np.asarray(c.faces, dtype=np.int64)
-    for key, value in (("tracker.backend", rig.backend), ("tracker.profile", rig.profile)):
-        if value is not None:
-            arrays[key] = np.asarray(str(value))
     if c.source is not None:
         arrays[_CHAR + "source"] = np.frombuffer(c.source, dtype=np.uint8)
     for key, value in rig.mapper.to_arrays().items():
@@ -217,7 +219,8 @@ def _source(array: np.ndarray | None) -> bytes | None:
 
 def load_rig(path: str | os.PathLike) -> Rig:
     """Read a rig file; a missing, corrupt, truncated or newer-version file raises FacepuppetError naming it."""
-    arrays = read_npz(path, "rig file")
+    arrays = read_npz(path, "rig file", known=("format", "version", "names", "point_names", "backend",
+                                               "profile_hash"), prefixes=(_CHAR, _MAPPER))
     check_format(arrays, path, "rig file", RIG_FORMAT, RIG_VERSION)
     needed = [_CHAR + k for k in ("neutral", "targets", "names", "name")] + ["names", "point_names"]
     missing = [k for k in needed if k not in arrays]
@@ -234,13 +237,20 @@ def load_rig(path: str | os.PathLike) -> Rig:
             name=str(arrays[_CHAR + "name"]),
             source=_source(arrays.get(_CHAR + "source")),
         )
-        mapper = ExpressionMapper.from_arrays({k[len(_MAPPER):]: v for k, v in arrays.items()
-                                               if k.startswith(_MAPPER)})
+        mapper_arrays = {k[len(_MAPPER):]: v for k, v in arrays.items() if k.startswith(_MAPPER)}
+        damaged = sorted(k for k, v in mapper_arrays.items() if k in _MAPPER_NUMBERS and v.dtype.kind in "fc"
+                         and not np.isfinite(v).all())
+        if damaged:
+            raise FacepuppetError(f"the fitted mapping holds NaN or infinite values ({', '.join(damaged)}); "
+                                  f"fit the rig again")
+        if not (np.isfinite(character.neutral).all() and np.isfinite(character.targets).all()):
+            raise FacepuppetError("the character's vertices hold NaN or infinite values")
+        mapper = ExpressionMapper.from_arrays(mapper_arrays)
         return Rig(mapper=mapper, character=character,
                    names=tuple(str(n) for n in np.atleast_1d(arrays["names"])),
                    point_names=tuple(str(n) for n in np.atleast_1d(arrays["point_names"])),
-                   backend=str(arrays["tracker.backend"]) if "tracker.backend" in arrays else None,
-                   profile=str(arrays["tracker.profile"]) if "tracker.profile" in arrays else None)
+                   backend=str(arrays["backend"]) if "backend" in arrays else None,
+                   profile_hash=str(arrays["profile_hash"]) if "profile_hash" in arrays else None)
     except FacepuppetError as e:
         raise FacepuppetError(f"{path}: invalid rig file ({e})") from e
     except (ValueError, TypeError, KeyError, IndexError) as e:

@@ -13,7 +13,7 @@ For a sample x_t at time t, with T = t - t_prev::
     fc         = min_cutoff + beta |dx_t|
     y_t        = alpha(fc) x_t + (1 - alpha(fc)) y_prev
 
-Each channel (key-model weight) has its own cut-off (the filter is :class:`~facepuppet.capture.one_euro.OneEuro`
+Each channel (key-model weight) has its own cut-off (the filter is :class:`~facepuppet.filters.OneEuro`
 with one-component groups). Defaults (:class:`SmoothingConfig`), chosen for blend
 weights in [0, 1] at 24-60 frames per second: ``min_cutoff = 1.5`` Hz removes tracking jitter of a still face
 (white noise variance falls about six-fold at 30 fps); ``beta = 2.0`` opens the filter to about 10 Hz during a
@@ -31,7 +31,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from facepuppet.capture.one_euro import OneEuro, OneEuroConfig
+from facepuppet.filters import OneEuro, OneEuroConfig
 
 __all__ = ["SmoothingConfig", "OneEuroFilter", "smooth", "parse_smoothing"]
 

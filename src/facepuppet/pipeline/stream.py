@@ -31,6 +31,8 @@ from typing import Protocol
 
 import numpy as np
 
+from facepuppet._util.interrupt import between_frames
+from facepuppet._util.interrupt import check as interrupt_check
 from facepuppet.capture.features import FrameFeatures
 from facepuppet.errors import FacepuppetError
 from facepuppet.pipeline.gain import GainConfig, gain_vector
@@ -231,12 +233,19 @@ class StreamSummary:
 
 
 def source_frames(source, *, max_frames: int | None = None) -> Iterator[SourceFrame]:
-    """Every frame of an opened :class:`~facepuppet.io.frames.MediaSource`, in order, at ``index / fps``."""
+    """Every frame of an opened :class:`~facepuppet.io.frames.MediaSource`, in order, at its time: the
+    container's timestamp where a variable-frame-rate video has one (:func:`~facepuppet.io.frames.frame_time`),
+    else ``index / fps``."""
+    from facepuppet.io.frames import frame_time
+
     fps = float(source.fps)
+    previous = None
     for i, rgb in enumerate(source):
         if max_frames is not None and i >= max_frames:
             return
-        yield SourceFrame(i, i / fps, rgb, time.perf_counter())
+        t = frame_time(i, fps, getattr(source, "last_time", None), previous)
+        previous = t
+        yield SourceFrame(i, t, rgb, time.perf_counter())
 
 
 def run_stream(frames: Iterable[SourceFrame], tracker, mapper: FrameMapper, outputs: Sequence[Output], *,
@@ -273,7 +282,20 @@ def run_stream(frames: Iterable[SourceFrame], tracker, mapper: FrameMapper, outp
     summary = StreamSummary()
     spent = summary.timings
     start = time.perf_counter()
+    with between_frames():
+        summary = _run_frames(frames, tracker, mapper, outputs, on_frame, keep_latency, summary)
+    t0 = time.perf_counter()
+    for out in outputs:
+        out.finish()
+    spent["write"] += time.perf_counter() - t0
+    summary.seconds = time.perf_counter() - start
+    return summary
+
+
+def _run_frames(frames, tracker, mapper, outputs, on_frame, keep_latency, summary) -> StreamSummary:
+    spent = summary.timings
     for src in frames:
+        interrupt_check()
         t0 = time.perf_counter()
         if src.features is not None:
             features = src.features
@@ -298,9 +320,4 @@ def run_stream(frames: Iterable[SourceFrame], tracker, mapper: FrameMapper, outp
         summary.last_time = src.time
         if on_frame is not None:
             on_frame(frame)
-    t0 = time.perf_counter()
-    for out in outputs:
-        out.finish()
-    spent["write"] += time.perf_counter() - t0
-    summary.seconds = time.perf_counter() - start
     return summary

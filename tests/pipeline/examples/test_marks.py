@@ -143,3 +143,11 @@ def test_no_face_near_a_mark(rng):
 
     with pytest.raises(FacepuppetError, match="jawOpen .frame 50.: no face"):
         from_marked_track(make_track(points, valid), [N, M])
+
+
+def test_capture_examples_needs_one_way(tmp_path):
+    from facepuppet.pipeline.examples import capture_examples
+
+    for kwargs in ({}, {"marks": tmp_path / "m.csv", "auto": True}):
+        with pytest.raises(ValueError, match="either a marks file or auto=True"):
+            capture_examples(tmp_path / "v.mp4", names=["jawOpen"], **kwargs)

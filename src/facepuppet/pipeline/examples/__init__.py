@@ -1,6 +1,7 @@
 """Capturing the performer's key expressions (the paper's source base S_B and source examples S_i).
 
-Three ways, all returning a :class:`~facepuppet.io.performer.Performer` (saved with
+:func:`capture_examples` captures them from a video, by marks or automatically. The three ways, all
+returning a :class:`~facepuppet.io.performer.Performer` (saved with
 :func:`~facepuppet.io.performer.save_performer` as the key expressions file ``facepuppet rig --performer``
 reads):
 
@@ -17,6 +18,7 @@ holds the options of all three.
 """
 
 from facepuppet.pipeline.examples.auto import from_auto
+from facepuppet.pipeline.examples.capture import capture_examples
 from facepuppet.pipeline.examples.checks import check_examples
 from facepuppet.pipeline.examples.config import NEUTRAL, ExamplesConfig
 from facepuppet.pipeline.examples.interactive import CANCEL_KEYS, CAPTURE_KEYS, KeySource, from_camera
@@ -24,7 +26,8 @@ from facepuppet.pipeline.examples.marks import HEAD_MOTION, Mark, from_marked_tr
 from facepuppet.pipeline.examples.window import steadiest_window
 
 __all__ = [
-    "ExamplesConfig", "from_marks", "from_marked_track", "from_auto", "from_camera", "check_examples",
+    "capture_examples", "ExamplesConfig", "from_marks", "from_marked_track", "from_auto", "from_camera",
+    "check_examples",
     "Mark", "read_marks", "parse_when", "steadiest_window", "KeySource", "CAPTURE_KEYS", "CANCEL_KEYS",
     "NEUTRAL", "HEAD_MOTION",
 ]

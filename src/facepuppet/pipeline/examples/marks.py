@@ -128,6 +128,8 @@ def read_marks(path: str | os.PathLike, fps: float, n_frames: int,
                 frame, stop = parse_when(start_text, fps), parse_when(stop_text, fps)
                 if stop <= frame:
                     raise ValueError(f"the span {when} ends before it starts")
+            elif when.startswith("-"):
+                raise ValueError(f"a time cannot be negative, got {when!r}")
             elif "-" in when:
                 raise ValueError(f"only {HEAD_MOTION} marks a span (START-END); {name!r} marks one time, got "
                                  f"{when!r}")

@@ -1,0 +1,272 @@
+"""Finding the face afresh (§3.1): skin regions and eye holes, candidate face frames pulled onto the eyes, the
+light they are seen in; where skin fails, the landmark backend's eyes; once, the eye anchors calibrated on them.
+
+:class:`Acquirer` does it for a :class:`~facepuppet.capture.color.tracker.ColorTracker` through the tracker's
+public measurement (:class:`Measurer`) and the :class:`~facepuppet.capture.color.measure.Placement` they share.
+
+Conventions: face frames in image pixels (:class:`~facepuppet.capture.color.face.FaceFrame`); a face unit is
+the eye-centre distance; crop pixels are ``px`` per face unit.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import replace
+from typing import Protocol
+
+import cv2
+import numpy as np
+
+from facepuppet.capture.color.config import ColorTrackerConfig
+from facepuppet.capture.color.eye_anchors import (
+    calibrated_anchors,
+    eye_centres,
+    eye_centres_of,
+    landmark_curves,
+    shared_landmarker,
+)
+from facepuppet.capture.color.face import FaceFrame, find_face, light_balance, same_frame, similarity_from_points
+from facepuppet.capture.color.likeness import FaceTemplate
+from facepuppet.capture.color.measure import Measurement, Placement
+from facepuppet.capture.color.profile import Profile
+from facepuppet.capture.curves import CURVE_NAMES, bezier_points
+
+__all__ = ["Acquirer", "Measurer", "CANDIDATE_SHIFTS", "CANDIDATE_SCALES", "LIGHT_PERCENTILE", "LIGHT_TOP",
+           "MOUTH_OFFSET_LIMIT", "MIN_UNIT", "REFINE_STEPS", "SAME_FACE", "ANCHOR_STEPS", "ANCHOR_TOLERANCE",
+           "candidate_frames", "fit_light", "likeness", "mouth_offset"]
+
+log = logging.getLogger(__name__)
+
+# Tuning constants                      unit          what it does
+CANDIDATE_SHIFTS = (0.0, 0.35, -0.35)   # face units    vertical shifts of a skin region's candidate frames
+CANDIDATE_SCALES = (1.0, 0.8, 1.25)     # ratio         sizes of a skin region's candidate frames
+LIGHT_PERCENTILE = 99.0                 # percentile    of the face crop the light transform keeps ...
+LIGHT_TOP = 230.0                       # 8-bit level   ... at or below this (no saturated face)
+MOUTH_OFFSET_LIMIT = 0.3                # face units    farthest the backend's mouth moves the mouth rectangle
+MOUTH_SAMPLES = 16                      # points        along each lip curve averaged for the mouth's place
+MIN_UNIT = 6                            # image pixels  smallest face (eye-centre distance) tracked
+REFINE_STEPS = 3                        # steps         eye-search steps pulling a candidate onto the eyes
+SAME_FACE = (0.25, 0.2)                 # face units, log size: the landmark backend's face is the one acquired
+ANCHOR_STEPS = 4                        # steps         most eye searches to find the eye blobs' fixed point
+ANCHOR_TOLERANCE = 0.25                 # crop pixels   step below which the fixed point is found
+#: The eyes' correction of a frame that keeps it as it is (a, b, tx, ty).
+NO_CORRECTION = (1.0, 0.0, 0.0, 0.0)
+
+_LIPS = [i for i, n in enumerate(CURVE_NAMES) if n.startswith("lip_")]
+
+
+def candidate_frames(frame: FaceFrame) -> list[FaceFrame]:
+    """The face frames tried on a skin region's frame: shifted up and down, smaller and larger."""
+    return [frame.compose(np.array([[s, 0.0, 0.0], [0.0, s, dy]]))
+            for dy in CANDIDATE_SHIFTS for s in CANDIDATE_SCALES]
+
+
+def fit_light(rgb: np.ndarray, frame: FaceFrame, M: np.ndarray, px: float, size: tuple[int, int]) -> np.ndarray:
+    """The light transform ``M`` (3, 3) scaled down where it would saturate the face: the face crop's
+    :data:`LIGHT_PERCENTILE` is kept at or below :data:`LIGHT_TOP` (a stretch measured on the whole frame
+    over-brightens a small face)."""
+    crop = cv2.warpAffine(rgb, frame.crop_matrix(px), size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    top = float(np.percentile(cv2.transform(crop, M), LIGHT_PERCENTILE))
+    return M * min(1.0, LIGHT_TOP / max(top, 1.0))
+
+
+def likeness(result: Measurement, last: FaceFrame | None, resize_cost: float) -> float:
+    """How much a measurement's crop looks like a face, less ``resize_cost`` per unit of log size change from
+    ``last``, the frame the face was just lost in (if any)."""
+    if last is None:
+        return result.score
+    return result.score - resize_cost * abs(np.log(result.frame.unit / last.unit))
+
+
+def mouth_offset(curves: np.ndarray, frame: FaceFrame, layout: np.ndarray, px: float) -> np.ndarray:
+    """Crop pixels (2,) the mouth of the landmark backend's curves (C, 4, 2, image pixels) sits off the layout's
+    (C, 4, 2, face units) in face frame ``frame``, each axis at most :data:`MOUTH_OFFSET_LIMIT` face units (faces
+    differ most in the eye-mouth distance)."""
+    M = frame.to_image()
+    seen = (np.concatenate([bezier_points(c, MOUTH_SAMPLES) for c in curves[_LIPS]]).mean(axis=0) - M[:, 2]) \
+        @ np.linalg.inv(M[:, :2]).T
+    drawn = np.concatenate([bezier_points(c, MOUTH_SAMPLES) for c in np.asarray(layout)[_LIPS]]).mean(axis=0)
+    return np.clip(seen - drawn, -MOUTH_OFFSET_LIMIT, MOUTH_OFFSET_LIMIT) * px
+
+
+class Measurer(Protocol):
+    """What :class:`Acquirer` needs of the tracker."""
+
+    profile: Profile
+    config: ColorTrackerConfig
+
+    @property
+    def crop_size(self) -> tuple[int, int]: ...
+
+    @property
+    def intensity_last(self) -> np.ndarray | None: ...
+
+    def intensity(self, crop: np.ndarray) -> np.ndarray: ...
+
+    def measure(self, rgb: np.ndarray, frame: FaceFrame, *, follow: bool, gain: float, outline: bool = True,
+                correction: np.ndarray | None = None) -> Measurement | None: ...
+
+
+class Acquirer:
+    """Finds the face afresh for one tracker.
+
+    Parameters
+    ----------
+    tracker : Measurer
+        The tracker whose measurement scores the candidates.
+    place : Placement
+        The placement the tracker measures with (its light, mouth offset and anchors are set here).
+    template : FaceTemplate
+        The layout drawn as a face (the likeness of a frame the landmark backend placed).
+    eye_window : (int, int)
+        Half width and half height (crop pixels) of the eye search's window.
+    """
+
+    def __init__(self, tracker: Measurer, place: Placement, template: FaceTemplate, eye_window: tuple[int, int]):
+        self.tracker = tracker
+        self.place = place
+        self.template = template
+        self.eye_window = eye_window
+        self.landmarker = None          # the shared landmark backend, once needed (False: not available)
+        self.landmark_wait = 0          # frames to wait before asking the landmark backend again
+
+    def find(self, rgb: np.ndarray, last: FaceFrame | None = None) -> Measurement | None:
+        """The measurement of the candidate frame that looks most like a face, or None.
+
+        ``last``: the frame the face was followed in until now, if it was just lost (a candidate too, in the
+        light it was followed in).
+        """
+        place, cfg = self.place, self.tracker.config
+        cost = cfg.acquire.resize_cost
+        last_light = place.light
+        # Skin regions of the frame as filmed and of the frame with its light's colour and level evened out
+        # (a warm, cool or dim light moves skin out of the skin model, or other things into it). The light of
+        # the hypothesis that looks most like a face is kept: the crops are evened out the same way until the
+        # face is lost.
+        best, light, seen = None, None, []
+        hypotheses = [(None, None), (light_balance(rgb), None)]
+        if last is not None:
+            hypotheses.insert(0, (last_light, last))
+        for M, frame in hypotheses:
+            if frame is None:
+                frame = find_face(rgb if M is None else cv2.transform(rgb, M), self.tracker.profile.skin)
+            if frame is None or frame.unit < MIN_UNIT or any(same_frame(frame, f) for f in seen):
+                continue
+            seen.append(frame)
+            place.light = M
+            got = self.refine(rgb, candidate_frames(frame), last)
+            if got is not None and (best is None or likeness(got, last, cost) > likeness(best, last, cost)):
+                best, light = got, M
+        place.light = (light if light is None or best is None
+                       else fit_light(rgb, best.frame, light, cfg.measure.px, self.tracker.crop_size))
+        if best is None or best.score < cfg.acquire.min_score:
+            best = self._landmark_acquire(rgb)
+        if best is None:
+            return None
+        if not place.calibrated:
+            place.calibrated = True
+            placed = self._calibrate_anchors(rgb, best.frame)
+            if placed is not None:
+                best = self._settle(rgb, placed) or best
+        return best
+
+    def refine(self, rgb: np.ndarray, candidates: list[FaceFrame],
+               last: FaceFrame | None = None) -> Measurement | None:
+        """Pull each candidate face frame onto the eyes; the result that looks most like a face
+        (:func:`likeness` with ``last``), or None."""
+        cost = self.tracker.config.acquire.resize_cost
+        best = None
+        for cand in candidates:
+            result = None
+            for step in range(REFINE_STEPS):
+                result = self.tracker.measure(rgb, cand, follow=False, gain=1.0, outline=step == REFINE_STEPS - 1)
+                if result is None:
+                    break
+                cand = result.frame
+            if result is not None and result.eyes_found and (best is None or
+                                                             likeness(result, last, cost) > likeness(best, last, cost)):
+                best = result
+        return best
+
+    def _calibrate_anchors(self, rgb: np.ndarray, frame: FaceFrame) -> FaceFrame | None:
+        """Move the eye anchors onto the eye blobs of a crop placed by the landmark backend's eyes (the layout's
+        eyes on them); the face frame of that crop if they moved, else None. ``frame``: the frame acquired."""
+        from facepuppet.capture.landmarks import MediaPipeConfig
+
+        cfg = self.tracker.config
+        lm = cfg.landmarks
+        landmarker = shared_landmarker(lm.model, MediaPipeConfig(refine_scales=(), tile_fractions=()))
+        curves = None if landmarker is None else landmark_curves(landmarker, rgb)
+        if curves is None:
+            return None
+        S = similarity_from_points(eye_centres_of(np.asarray(self.tracker.profile.layout)), eye_centres_of(curves))
+        placed = FaceFrame(S[:, 2].copy(), S[:, 0].copy())
+        if not same_frame(placed, frame, *SAME_FACE):
+            return None                     # the backend's face is not the one acquired
+        px = cfg.measure.px
+        crop = cv2.warpAffine(rgb, placed.crop_matrix(px), self.tracker.crop_size, flags=cv2.INTER_LINEAR,
+                              borderMode=cv2.BORDER_REPLICATE)
+        if self.place.light is not None:
+            crop = cv2.transform(crop, self.place.light)
+        C = self.tracker.intensity(crop)
+        # The blobs' centres as a fixed point of the eye search (each search takes a few mean-shift steps).
+        old = self.place.anchors_px
+        eyes = old[:2]
+        for _ in range(ANCHOR_STEPS):
+            ok, nxt = eye_centres(C, eyes, *self.eye_window)
+            if not ok:
+                return None
+            eyes, step = nxt, np.abs(nxt - eyes).max()
+            if step < ANCHOR_TOLERANCE:
+                break
+        new = calibrated_anchors(old, eyes, px, scale_limits=lm.anchor_scale_limits,
+                                 noise_floor=lm.anchor_noise_floor, gain=lm.anchor_calibration)
+        if new is None:
+            return None
+        log.debug("eye anchors calibrated: %s -> %s face units", (old[:2] / px).round(3).tolist(),
+                  (new[:2] / px).round(3).tolist())
+        self.place.set_anchors(new)
+        return placed
+
+    def _landmark_acquire(self, rgb: np.ndarray) -> Measurement | None:
+        """The face frame placed on the eyes the landmark backend finds (no skin needed), refined on §3's eyes."""
+        cfg = self.tracker.config
+        lm = cfg.landmarks
+        if not lm.enabled or self.landmarker is False:
+            return None
+        if self.landmark_wait > 0:
+            self.landmark_wait -= 1
+            return None
+        if self.landmarker is None:
+            self.landmarker = shared_landmarker(lm.model) or False
+            if self.landmarker is False:
+                return None
+        curves = landmark_curves(self.landmarker, rgb)
+        if curves is None:
+            self.landmark_wait = lm.retry
+            return None
+        eyes = eye_centres_of(curves)
+        S = similarity_from_points(np.asarray(self.tracker.profile.anchors)[:2], eyes)
+        frame = FaceFrame(S[:, 2].copy(), S[:, 0].copy())
+        if frame.unit < MIN_UNIT:
+            return None
+        # The mouth rectangle goes where the backend's mouth is.
+        self.place.mouth_offset = mouth_offset(curves, frame, self.tracker.profile.layout, cfg.measure.px)
+        best = self._settle(rgb, frame)
+        if best is None or best.score < lm.min_score:
+            return None
+        return best
+
+    def _settle(self, rgb: np.ndarray, frame: FaceFrame) -> Measurement | None:
+        """Measure in a face frame the landmark backend placed (no skin needed): §3's eye search may only
+        nudge it (the backend's eyes are trusted); the measurement, or None."""
+        self.place.skinless_ok = True
+        try:
+            best = self.refine(rgb, [frame])
+            if best is None or not same_frame(best.frame, frame):
+                best = self.tracker.measure(rgb, frame, follow=True, gain=0.0, correction=np.array(NO_CORRECTION))
+                if best is not None:
+                    best = replace(best, score=self.template.score(self.tracker.intensity_last, np.eye(2, 3)))
+        finally:
+            self.place.skinless_ok = False
+        return best

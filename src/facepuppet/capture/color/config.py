@@ -1,0 +1,183 @@
+"""Options of the colour tracker (:class:`~facepuppet.capture.color.tracker.ColorTracker`), grouped by concern.
+
+Units: a *face unit* is the distance between the eye centres; crop pixels are ``measure.px`` per face unit;
+scores are correlations of the feature intensity with the layout drawn as a face, in [-1, 1].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from facepuppet.capture.color.rules import OUTLINE_PARTS
+from facepuppet.capture.color.snakes import SnakeConfig
+from facepuppet.filters import OneEuroConfig
+
+__all__ = ["ColorTrackerConfig", "MeasureConfig", "FollowConfig", "AcquireConfig", "LandmarkConfig", "FilterConfig"]
+
+
+@dataclass(frozen=True, kw_only=True)
+class MeasureConfig:
+    """What one frame's measurement reads (§3.2-3.3).
+
+    Attributes
+    ----------
+    px : float
+        Crop pixels per face unit: the work is proportional to its square.
+    reestimate_every : int
+        Frames between re-estimates of Eq. 1's weights by the colour network.
+    eye_window : (float, float)
+        Half width and half height (face units) of the window the eye centres are searched in.
+    outline_parts : tuple of str
+        Which features §3.2's rules read (:data:`~facepuppet.capture.color.rules.OUTLINE_PARTS`); the others keep
+        the layout's curves. A part's rules are skipped anyway where the profile's shape models read it (its
+        curves would be replaced); the snakes go with the lips' rules, the eyelid model with the eyes'.
+    snake : SnakeConfig
+        The lips' snakes (Eqs. 2-4).
+    """
+
+    px: float = 48.0
+    reestimate_every: int = 15
+    eye_window: tuple[float, float] = (0.3, 0.14)
+    outline_parts: tuple[str, ...] = OUTLINE_PARTS
+    snake: SnakeConfig = field(default_factory=lambda: SnakeConfig(iterations=5, samples=10, offset=1.5, step=1.0))
+
+    def __post_init__(self):
+        unknown = set(self.outline_parts) - set(OUTLINE_PARTS)
+        if unknown:
+            raise ValueError(f"outline_parts: unknown {sorted(unknown)}; known: {', '.join(OUTLINE_PARTS)}")
+
+
+@dataclass(frozen=True, kw_only=True)
+class FollowConfig:
+    """Following a face found in the last frame.
+
+    Attributes
+    ----------
+    iterations : int
+        Most steps of the face crop's alignment on the reference crop (ECC) per frame.
+    scale : float
+        Resolution of the crops aligned, as a fraction of the tracker's crop.
+    frame_gain : float
+        Gain of the filter on the eyes' correction of the followed face frame (1: no smoothing).
+    max_misses : int
+        Frames in a row without the eyes after which the face is searched afresh.
+    min_score : float
+        Least likeness to a face to keep following it.
+    check_every : int
+        Frames between checks that the followed crop still looks like a face.
+    min_followed_score : float
+        Least likeness (averaged over checks) to keep following.
+    """
+
+    iterations: int = 2
+    scale: float = 0.35
+    frame_gain: float = 0.3
+    max_misses: int = 15
+    min_score: float = 0.05
+    check_every: int = 4
+    min_followed_score: float = 0.1
+
+
+@dataclass(frozen=True, kw_only=True)
+class AcquireConfig:
+    """Finding the face afresh from the skin model (§3.1).
+
+    Attributes
+    ----------
+    min_score : float
+        Least likeness to a face to acquire one.
+    min_skinless_score : float
+        Least likeness to a face of a crop whose cheeks do not look like skin.
+    resize_cost : float
+        When the face was just lost, candidates for finding it again are compared by their likeness to a face
+        minus this times the absolute log ratio of their size to the lost frame's: a face does not change size
+        between two frames, a frame over the whole head or over one eye may look like a face too.
+    """
+
+    min_score: float = 0.15
+    min_skinless_score: float = 0.3
+    resize_cost: float = 0.3
+
+
+@dataclass(frozen=True, kw_only=True)
+class LandmarkConfig:
+    """The landmark backend's help (MediaPipe, optional): placing the face where skin fails, calibrating anchors.
+
+    Attributes
+    ----------
+    enabled : bool
+        When the skin model finds no face (greyscale or colour-graded images, odd light), find it with the
+        landmark backend if mediapipe and its model (``$FACEPUPPET_FACE_LANDMARKER``) are available. Only its
+        eye positions are used, to place the face frame; the curves still come from §3's pipeline.
+    model : str or None
+        Path of the landmark backend's model; default ``$FACEPUPPET_FACE_LANDMARKER``.
+    retry : int
+        After the landmark backend found no face, frames to wait before asking it again (it is slow).
+    min_score : float
+        Least likeness to a face of a frame placed by the landmark backend (-1: trust the backend).
+    anchor_calibration : float
+        At the first acquisition, move the eye anchors toward the eye blobs of a crop whose layout sits on the
+        eyes the landmark backend sees (:func:`~facepuppet.capture.color.eye_anchors.calibrated_anchors`) by
+        this fraction of the way (0: never). One frame's evidence is weighed against the generic anchors.
+    anchor_scale_limits : (float, float)
+        Bounds of the calibration's scale change of the layout.
+    anchor_noise_floor : float
+        Face units an eye anchor must move by for the calibration to move the anchors at all.
+    """
+
+    enabled: bool = True
+    model: str | None = None
+    retry: int = 10
+    min_score: float = -1.0
+    anchor_calibration: float = 0.5
+    anchor_scale_limits: tuple[float, float] = (0.85, 1.15)
+    anchor_noise_floor: float = 0.03
+
+
+@dataclass(frozen=True, kw_only=True)
+class FilterConfig:
+    """Smoothing over time (speed-adaptive One-Euro filters, :class:`~facepuppet.filters.OneEuro`).
+
+    Attributes
+    ----------
+    enabled : bool
+        Smooth the face frame and the curves over time.
+    curve : OneEuroConfig
+        Filter of each curve control point in face units (speeds in face units per second).
+    lid : OneEuroConfig
+        Filter of the eyelids' middle control points when the profile has an eyelid model: as steady as
+        ``curve`` when still, quicker when moving, for a blink lasts a few frames; its speed estimate is quick
+        too (``d_cutoff`` 4 Hz), so that the lid's velocity down and back up within a blink opens the filter.
+    shape : OneEuroConfig or None
+        Filter of the control points the profile's shape models read (lips, brows, eyes)
+        (:mod:`~facepuppet.capture.color.shape_models`), whose readings are steadier than the rules' and whose
+        lag costs more than their jitter; None passes them unfiltered.
+    frame : OneEuroConfig
+        Filter of the face frame (eye midpoint and eye-to-eye vector, in face units).
+    """
+
+    enabled: bool = True
+    curve: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=0.3, beta=1.5, d_cutoff=1.0))
+    lid: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=0.3, beta=10.0, d_cutoff=4.0))
+    shape: OneEuroConfig | None = field(default_factory=lambda: OneEuroConfig(min_cutoff=1.0, beta=10.0, d_cutoff=4.0))
+    frame: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=1.0, beta=6.0, d_cutoff=1.0))
+
+
+@dataclass(frozen=True, kw_only=True)
+class ColorTrackerConfig:
+    """Options of the colour tracker, one group per concern.
+
+    Attributes
+    ----------
+    measure : MeasureConfig
+    follow : FollowConfig
+    acquire : AcquireConfig
+    landmarks : LandmarkConfig
+    filters : FilterConfig
+    """
+
+    measure: MeasureConfig = field(default_factory=MeasureConfig)
+    follow: FollowConfig = field(default_factory=FollowConfig)
+    acquire: AcquireConfig = field(default_factory=AcquireConfig)
+    landmarks: LandmarkConfig = field(default_factory=LandmarkConfig)
+    filters: FilterConfig = field(default_factory=FilterConfig)

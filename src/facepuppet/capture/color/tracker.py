@@ -1,0 +1,437 @@
+"""The paper's colour tracker (§3): Eq. 1 intensity, blobs in anthropometric rectangles, Bezier snakes.
+
+Per frame: the face frame of the last frame (or, when the face is lost, a fresh one from the skin model,
+:mod:`.acquire`) gives a small upright crop of the face (rectangles follow translation, scale and roll; the crop
+is first aligned on the acquisition's, :mod:`.follow`); Eq. 1 and the contrast C turn it into feature intensity
+(:mod:`.transform`); a blob is grown in each feature's rectangle and the layout's curves moved onto it
+(:mod:`.rules`); the lips are refined as snakes (Eqs. 2-4, :mod:`.snakes`) against the head's up-vector; the eye
+blobs re-align the face frame for the next frame; the curves are smoothed (:mod:`.smoothing`) and the head pose
+comes from the stable curve ends.
+
+Conventions: RGB uint8 frames; curves in image pixels (x right, y down); left and right are the performer's.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from facepuppet.capture.color.acquire import NO_CORRECTION, Acquirer
+from facepuppet.capture.color.config import ColorTrackerConfig
+from facepuppet.capture.color.eye_anchors import eye_centres
+from facepuppet.capture.color.face import CROP_EXTENT, FEATURE_BOXES, FaceFrame, box_in_crop, similarity_of_pairs
+from facepuppet.capture.color.follow import Follower
+from facepuppet.capture.color.jobs import wait_pending
+from facepuppet.capture.color.lids import PATCH_SIZE, apply_lid_model
+from facepuppet.capture.color.likeness import FaceTemplate
+from facepuppet.capture.color.measure import Measurement, Placement
+from facepuppet.capture.color.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
+from facepuppet.capture.color.rules import BLOB_PARAMS, BOX_NAMES, move_boxes, outline_features
+from facepuppet.capture.color.shape_models import FAMILIES, apply_shape_models
+from facepuppet.capture.color.smoothing import CurveSmoother
+from facepuppet.capture.color.snakes import LOWER, UPPER, SnakeSolver, snake_fields
+from facepuppet.capture.color.transform import feature_intensity, lip_hue_table, skin_fraction
+from facepuppet.capture.curves import CURVE_NAMES, POINT_NAMES
+from facepuppet.capture.features import FrameFeatures
+from facepuppet.capture.pose import STABLE_FEATURES, estimate_pose, points_in_head, pose_point_index
+
+__all__ = ["ColorTrackerConfig", "ColorTracker", "Measurement", "WARMUP_PARTS"]
+
+log = logging.getLogger(__name__)
+
+_IDX = {n: i for i, n in enumerate(CURVE_NAMES)}
+#: The parts of a frame's work :meth:`ColorTracker.warmup` runs: all but the outline rules, and the snakes.
+WARMUP_PARTS = ("frame", "snakes")
+
+# Tuning constants                 unit                  what it does
+SNAKE_MARGIN = 8                   # crop pixels           around the mouth rectangle the snakes see
+SNAKE_BLUR = 5                     # crop pixels           blur of the snakes' fields (:func:`.snakes.snake_fields`)
+SKIN_CHEEKS = 0.3                  # fraction              of the cheeks' pixels that must look like skin
+SCALE_STEP = (0.8, 1.25)           # ratio                 size change one frame's alignment or eye search may make
+UNIT_JUMP = (0.65, 1.5)            # ratio                 size change from the slow reference that loses the face
+UNIT_GAIN = 0.05                   # per frame             gain of the slow reference size
+
+_SHIFTED = np.array([not n.startswith("cheek") for n in BOX_NAMES])     # rectangles that follow the eyes
+_MOUTH_BOX = BOX_NAMES.index("mouth")
+_POSE_POINTS = pose_point_index(STABLE_FEATURES)         # the stable landmarks among the curve ends
+_UP = np.array([0.0, -1.0])                                # the head's up-vector in the upright crop
+_EYE2 = np.eye(2)
+_CROP_ORIGIN = np.asarray(CROP_EXTENT[:2], dtype=float)
+_CHEEK_L, _CHEEK_R = BOX_NAMES.index("cheek_left"), BOX_NAMES.index("cheek_right")
+_EYE_L, _EYE_R = BOX_NAMES.index("eye_left"), BOX_NAMES.index("eye_right")
+
+#: Curves refined as snakes, with the side their feature lies on (Fig. 3).
+_SNAKE_CURVES = (("lip_upper_outer", UPPER),
+                 ("lip_lower_outer", LOWER))
+_SNAKE_IDX = np.array([_IDX[n] for n, _ in _SNAKE_CURVES], dtype=np.int64)
+_SNAKE_SIDE = np.array([s for _, s in _SNAKE_CURVES])
+_SNAKE_FIXED = np.ones(len(_SNAKE_CURVES), bool)
+
+
+@dataclass
+class _Following:
+    """The face being followed from frame to frame."""
+
+    frame: FaceFrame | None = None          # the face frame of the last frame (None: lost)
+    dropped: FaceFrame | None = None        # the frame the likeness check just dropped
+    misses: int = 0                         # frames in a row without the eyes
+    correction: np.ndarray | None = None    # the eyes' smoothed correction (a, b, tx, ty), crop pixels
+    unit_ref: float = 1.0                   # slow reference of the face's size, image pixels
+    score: float | None = None              # smoothed likeness of the followed crop
+    tracked: int = 0                        # frames tracked
+    pose: object = None                     # the last head pose (the next solve starts there)
+
+
+@dataclass
+class _Intensity:
+    """Eq. 1's weights and the last frame's feature images."""
+
+    weights: np.ndarray                     # (4,) float32 Eq. 1's weights
+    count: int = 0                          # crops transformed (the network re-estimates every few)
+    raw: np.ndarray | None = None           # (H, W) float32 Eq. 1's intensity
+    C: np.ndarray | None = None             # (H, W) float32 the contrast C
+    value: np.ndarray | None = None         # (H, W) uint8 HSV value
+
+
+class ColorTracker:
+    """The paper's colour tracker; a :class:`~facepuppet.capture.features.Tracker` backend.
+
+    Parameters
+    ----------
+    profile : Profile, path or None
+        The performer profile (a .npz of :func:`~facepuppet.capture.color.profile.save_profile`); default the
+        built-in generic profile.
+    config : ColorTrackerConfig, optional
+    """
+
+    name = "color"
+
+    def __init__(self, profile: Profile | str | os.PathLike | None = None, *,
+                 config: ColorTrackerConfig | None = None):
+        if profile is None:
+            profile = default_profile()
+        elif not isinstance(profile, Profile):
+            profile = load_profile(profile)
+        self.profile = profile
+        config = config if config is not None else ColorTrackerConfig()
+        self.config = config
+        wait_pending()          # kernels being compiled in the background are not compiled here again
+        self._hue = lip_hue_table(profile.lip_hue)
+        self._intensity = _Intensity(np.asarray(profile.weights, dtype=np.float32))
+        self._net = None
+        if profile.net:
+            from facepuppet.capture.color.net import ColourNet
+
+            self._net = ColourNet.from_arrays(profile.net)
+        px = config.measure.px
+        self._size = (int(round((CROP_EXTENT[2] - CROP_EXTENT[0]) * px)),
+                      int(round((CROP_EXTENT[3] - CROP_EXTENT[1]) * px)))
+        shift = _layout_shift(profile.layout)
+        boxes = {k: box_in_crop(np.asarray(b) + np.r_[shift.get(k, (0, 0)), shift.get(k, (0, 0))], px)
+                 for k, b in FEATURE_BOXES.items()}
+        self._box_table = np.array([boxes[n] for n in BOX_NAMES], dtype=np.int64)
+        self._cheek_boxes = self._box_table[[_CHEEK_L, _CHEEK_R]]
+        self._eye_boxes = self._box_table[[_EYE_L, _EYE_R]]
+        self._skin_table = profile.skin.table()
+        self._eye_window = (int(round(config.measure.eye_window[0] * px)),
+                            int(round(config.measure.eye_window[1] * px)))
+        self._layout_px = (np.asarray(profile.layout) - CROP_EXTENT[:2]) * px
+        anchors_px = np.asarray((np.asarray(profile.anchors) - CROP_EXTENT[:2]) * px, dtype=float)
+        self._place = Placement(anchors_px, anchors_px[:2].mean(axis=0),
+                                calibrated=config.landmarks.anchor_calibration <= 0)
+        self._follow = _Following()
+        self._follower = Follower(self._size, px, config.follow)
+        #: (face crop, its crop matrix, the layout placed on it) of the last frame whose curves were measured:
+        #: where the profile's shape models learn (:func:`~facepuppet.capture.color.train.train_profile`).
+        self.seen: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._last_measured: tuple[np.ndarray, np.ndarray] | None = None    # (C, S_px) of the last measurement
+        self._template = FaceTemplate(self._layout_px, self._size, px)
+        self._snakes = SnakeSolver(_SNAKE_SIDE, _UP, config.measure.snake, fixed_ends=_SNAKE_FIXED)
+        # The rules whose curves the shape models replace are not run.
+        shaped = set(self.profile.shapes)
+        replaced = {"mouth"} if "lips" in shaped else set()
+        replaced |= {"brows"} if {"brow_left", "brow_right"} <= shaped else set()
+        replaced |= {"eyes"} if {"eye_left", "eye_right"} <= shaped else set()
+        self._parts = tuple(p for p in config.measure.outline_parts if p not in replaced)
+        # The eyelid model (and its filter) goes with the eyes' rules: where those are not run, it is not either.
+        self._lids = ({k: np.ascontiguousarray(v, dtype=np.float64) for k, v in profile.lids.items()}
+                      if "eyes" in self._parts else {})
+        self._smoother = CurveSmoother(config.filters, lids=bool(self._lids), shaped=np.concatenate(
+            [FAMILIES[f] for f in sorted(self.profile.shapes)] or [np.zeros(0, int)]))
+        self._acquirer = Acquirer(self, self._place, self._template, self._eye_window)
+
+    # -- what other modules read -----------------------------------------------------------------------
+    @property
+    def crop_size(self) -> tuple[int, int]:
+        """Width and height of the face crop, pixels."""
+        return self._size
+
+    @property
+    def layout_in_crop(self) -> np.ndarray:
+        """(C, 4, 2) the profile's layout placed on an unmoved face crop, crop pixels (a copy)."""
+        return self._layout_px.copy()
+
+    @property
+    def feature_boxes(self) -> np.ndarray:
+        """(len(BOX_NAMES), 4) int64 the feature rectangles of an unmoved face crop, crop pixels (a copy)."""
+        return self._box_table.copy()
+
+    @property
+    def anchors_px(self) -> np.ndarray:
+        """(3, 2) the eye and nose anchors the face frame is aligned on, crop pixels (a copy)."""
+        return self._place.anchors_px.copy()
+
+    @property
+    def parts(self) -> tuple[str, ...]:
+        """The parts of §3.2's rules this tracker runs (the configured ones less those shape models replace)."""
+        return self._parts
+
+    @property
+    def smoother(self) -> CurveSmoother:
+        """The filters over time."""
+        return self._smoother
+
+    @property
+    def intensity_last(self) -> np.ndarray | None:
+        """The contrast C (H, W) float32 of the last crop transformed (:meth:`intensity`)."""
+        return self._intensity.C
+
+    # -- per frame -------------------------------------------------------------------------------------
+    def track(self, rgb: np.ndarray, timestamp_ms: int) -> FrameFeatures:
+        """Track one RGB frame (H, W, 3) uint8; see :class:`~facepuppet.capture.features.Tracker`."""
+        rgb = np.asarray(rgb)
+        if rgb.ndim == 2:
+            rgb = cv2.cvtColor(rgb, cv2.COLOR_GRAY2RGB)
+        if rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.dtype != np.uint8:
+            raise ValueError(f"rgb must be an (H, W, 3) uint8 image, got shape {rgb.shape} dtype {rgb.dtype}")
+        h, w = rgb.shape[:2]
+        fol, cfg = self._follow, self.config.follow
+        result = None
+        if fol.frame is not None:
+            result = self.measure(rgb, fol.frame, follow=True, gain=cfg.frame_gain)
+            if result is not None:
+                fol.misses = 0 if result.eyes_found else fol.misses + 1
+                if fol.misses > cfg.max_misses or result.score < cfg.min_score:
+                    result = None
+                elif not (UNIT_JUMP[0] < result.frame.unit / fol.unit_ref < UNIT_JUMP[1]):
+                    result = None                   # the frame shrank or grew far too fast: start afresh
+                else:
+                    fol.unit_ref += UNIT_GAIN * (result.frame.unit - fol.unit_ref)
+        if result is None:
+            # The frame the face was followed in until now (or until the likeness check dropped it) is a
+            # candidate too: after a blink or a turn the face is usually still there.
+            result = self._acquire(rgb, last=fol.frame or fol.dropped)
+        fol.dropped = None
+        if result is None:
+            fol.frame = self.seen = None
+            return FrameFeatures.lost(len(CURVE_NAMES), len(POINT_NAMES))
+        curves, fol.frame, fol.correction, self.seen = result.curves, result.frame, result.correction, result.seen
+        fol.tracked += 1
+        if fol.tracked % cfg.check_every == 0:
+            self._check_score()
+        curves = self._smoother(curves, result.frame, timestamp_ms)
+        return self._features(curves, (w, h))
+
+    def close(self) -> None:
+        """Let go of the landmark backend (shared by the process's trackers: it stays open until exit)."""
+        self._acquirer.landmarker = None
+
+    def warmup(self, part: str) -> None:
+        """Run one part of a frame's compiled work on blank inputs of the tracking types (numba compiles or loads
+        its kernels; :mod:`~facepuppet.capture.color.precompile`). ``part``: one of :data:`WARMUP_PARTS`."""
+        if part not in WARMUP_PARTS:
+            raise ValueError(f"unknown warm-up part {part!r}; known: {', '.join(WARMUP_PARTS)}")
+        w, h = self._size
+        crop = np.zeros((h, w, 3), np.uint8)
+        curves = np.ascontiguousarray(self._layout_px, dtype=np.float64)
+        if part == "snakes":
+            self._snakes(curves[_SNAKE_IDX], snake_fields(np.zeros((h, w), np.float32), SNAKE_BLUR))
+            return
+        C = self.intensity(crop)
+        self.eye_centres(C)
+        self._skin_ok(crop)
+        self._boxes_now()
+        lids = {"coef": np.zeros((2, PATCH_SIZE[0] * PATCH_SIZE[1])), "intercept": np.zeros(2)}
+        apply_lid_model(curves.copy(), crop, lids)
+        self._smoother.curve(curves, 1 / 30)
+        self._smoother.curve(curves, 1 / 30)          # the first sample only starts the filter
+        self._features(curves, (w, h))
+        self._features(curves, (w, h))                 # from the previous frame's pose
+
+    def intensity(self, crop: np.ndarray) -> np.ndarray:
+        """Eq. 1 and the contrast C on a face crop (H, W, 3) uint8 -> (H, W) float32 in [0, 1]."""
+        it = self._intensity
+        if self._net is not None and (it.count % self.config.measure.reestimate_every == 0):
+            from facepuppet.capture.color.net import subarea_means
+
+            it.weights = self._net.predict(subarea_means(crop, self.config.measure.px))
+        it.count += 1
+        it.raw, it.C, it.value = feature_intensity(
+            crop, it.weights.astype(np.float64), self._hue, self.profile.lip_hue.min_saturation,
+            self._cheek_boxes, self._eye_boxes)
+        return it.C
+
+    def eye_centres(self, C: np.ndarray) -> np.ndarray | None:
+        """Eye centres (2, 2) in crop pixels of the contrast C (H, W) of a face crop, near the expected anchors
+        (:func:`~facepuppet.capture.color.eye_anchors.eye_centres`), or None."""
+        found, eyes = eye_centres(C, self._place.anchors_px, *self._eye_window)
+        return eyes if found else None
+
+    def measure(self, rgb: np.ndarray, frame: FaceFrame, *, follow: bool, gain: float, outline: bool = True,
+                correction: np.ndarray | None = None) -> Measurement | None:
+        """Measure one RGB frame in the face frame ``frame``: with ``follow``, first align the crop on the
+        reference and smooth the eyes' correction (the last frame's, or ``correction`` (4,) if given) with
+        ``gain``; without ``outline``, only re-align the frame (the curves are None: the steps that only move a
+        candidate frame do not need them).
+
+        Returns
+        -------
+        Measurement or None
+            None when the crop shows no face (no skin on the cheeks and little likeness to a face).
+        """
+        px = self.config.measure.px
+        place = self._place
+        A = frame.crop_matrix(px)
+        if follow and self._follower.ref is not None:
+            moved = self._follower.follow(rgb, A)
+            if moved is not None and SCALE_STEP[0] < moved.unit / frame.unit < SCALE_STEP[1]:
+                frame = moved
+                A = frame.crop_matrix(px)
+        crop = cv2.warpAffine(rgb, A, self._size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        if place.light is not None:
+            crop = cv2.transform(crop, place.light)
+        skin = self._skin_ok(crop)
+        C = self.intensity(crop)
+        eyes = self.eye_centres(C)
+        # The eyes' correction of the followed frame (a similarity in crop pixels, as a, b, tx, ty), smoothed
+        # over frames: the alignment on the whole face is steady, the eye search noisier but unbiased.
+        last_corr = correction if correction is not None else self._follow.correction
+        smooth = follow and last_corr is not None
+        corr = last_corr if smooth else np.array(NO_CORRECTION)
+        if eyes is not None:
+            S_eye = similarity_of_pairs(place.anchors_px[:2], eyes)
+            if SCALE_STEP[0] < float(np.hypot(S_eye[0, 0], S_eye[1, 0])) < SCALE_STEP[1]:
+                v = np.array([S_eye[0, 0], S_eye[1, 0], S_eye[0, 2], S_eye[1, 2]])
+                corr = corr + gain * (v - corr) if smooth else v
+            else:
+                eyes = None
+        a, b, tx, ty = corr.tolist()
+        S_px = np.array([[a, -b, tx], [b, a, ty]])
+        scale = float(np.hypot(a, b))
+        place.shift = S_px[:, 2] + (S_px[:, :2] - _EYE2) @ place.anchor_mid
+        self._last_measured = (C, S_px)
+        boxes = self._boxes_now()
+        # How much the crop looks like a face: needed to pick among candidates and when the skin is not seen.
+        score = self._template.score(C, S_px) if (not follow or not skin) else 1.0
+        if not skin and score < self.config.acquire.min_skinless_score and not place.skinless_ok:
+            return None
+        curves = None
+        if outline:
+            placed = self._layout_px @ S_px[:, :2].T + S_px[:, 2]
+            curves_px = self._outlines(C, crop, placed, boxes, px * scale)
+            Ainv = cv2.invertAffineTransform(A)
+            curves = curves_px @ Ainv[:, :2].T + Ainv[:, 2]                 # back to image pixels
+        S = np.empty((2, 3))                                                  # S_px in face units
+        S[:, :2] = S_px[:, :2]
+        S[:, 2] = -S_px[:, :2] @ _CROP_ORIGIN + S_px[:, 2] / px + _CROP_ORIGIN
+        measured = frame.compose(S)
+        return Measurement(curves=curves, frame=measured, eyes_found=eyes is not None, score=score, correction=corr,
+                           seen=(crop, A, placed) if outline else None)
+
+    # -- internals -------------------------------------------------------------------------------------
+    def _outlines(self, C: np.ndarray, crop: np.ndarray, layout: np.ndarray, boxes: np.ndarray,
+                  unit: float) -> np.ndarray:
+        """The curves (C, 4, 2) in crop pixels: §3.2's rules from the layout placed on the crop (``layout``),
+        the lips refined as snakes, the lids by the performer's eyelid model if any, the lips, brows and eyes
+        by the performer's shape models if any (which make the rules, the snakes and the eyelid model they
+        replace needless). ``unit``: crop pixels per face unit."""
+        it = self._intensity
+        curves_px = outline_features(C, raw=it.raw, value=it.value, layout=layout, boxes=boxes,
+                                     blob_params=BLOB_PARAMS, unit=unit, mouth_reach=float(self.profile.mouth_reach),
+                                     mouth_offset=self._place.mouth_offset, parts=self._parts)
+        idx = _SNAKE_IDX
+        if len(idx) and "mouth" in self._parts:
+            # The snakes see the mouth rectangle and a margin (the fields are only computed there).
+            h, w = C.shape
+            m = SNAKE_MARGIN
+            x0, y0, x1, y1 = boxes[_MOUTH_BOX]
+            x0, y0, x1, y1 = max(x0 - m, 0), max(y0 - m, 0), min(x1 + m, w), min(y1 + m, h)
+            if x1 - x0 > 2 * m and y1 - y0 > 2 * m:
+                o = np.array([x0, y0], dtype=float)
+                curves_px[idx] = self._snakes(curves_px[idx] - o, snake_fields(C[y0:y1, x0:x1], SNAKE_BLUR)) + o
+        if self._lids:
+            # The performer's eyelid model reads the lids off the look of each eye (:mod:`.lids`).
+            apply_lid_model(curves_px, crop, self._lids)
+        if self.profile.shapes:
+            apply_shape_models(curves_px, crop, layout, self.profile.shapes)
+        return curves_px
+
+    def _features(self, curves: np.ndarray, size: tuple[int, int]) -> FrameFeatures:
+        # The stable landmarks are the layout's, placed by the face frame (a similarity): they show the head's
+        # roll, size and place but not a turn, so the pose is solved upright (estimate_pose, out_of_plane).
+        uv = curves[_POSE_POINTS]
+        pose = estimate_pose(uv, size, previous=self._follow.pose, out_of_plane=False)
+        if not pose:
+            pose = estimate_pose(uv, size, out_of_plane=False)
+        self._follow.pose = pose if pose else None
+        if pose:
+            points = points_in_head(curves, pose)
+            return FrameFeatures(True, curves, pose.rotation, pose.translation, points)
+        nan = np.nan
+        return FrameFeatures(True, curves, np.full((3, 3), nan), np.full(3, nan), np.full((len(POINT_NAMES), 3), nan))
+
+    def _skin_ok(self, crop: np.ndarray) -> bool:
+        """Whether the cheeks of the crop look like skin (the profile's skin model, over :data:`SKIN_CHEEKS` of
+        the pixels)."""
+        return skin_fraction(crop, self._cheek_boxes, self._skin_table) > SKIN_CHEEKS
+
+    def _boxes_now(self) -> np.ndarray:
+        """The feature rectangles (len(BOX_NAMES), 4) of this frame: moved with the layout's eyes (translation
+        only; the mouth also by its offset), clipped to the crop. The cheeks stay where the frame puts them."""
+        return move_boxes(self._box_table, _SHIFTED, _MOUTH_BOX, self._place.shift, self._place.mouth_offset,
+                          *self._size)
+
+    def _check_score(self) -> None:
+        """Now and then, how much the followed crop still looks like a face (smoothed); drop the frame if not.
+
+        Scored on the crop just measured, with the layout placed where the eyes put it.
+        """
+        fol = self._follow
+        score = self._template.score(*self._last_measured)
+        fol.score = score if fol.score is None else 0.5 * (fol.score + score)
+        if fol.score < self.config.follow.min_followed_score:
+            log.debug("face lost: the followed crop no longer looks like a face (score %.2f)", fol.score)
+            fol.frame, fol.dropped = None, fol.frame
+
+    def _acquire(self, rgb: np.ndarray, last: FaceFrame | None = None) -> Measurement | None:
+        """Find the face afresh (:meth:`~.acquire.Acquirer.find`), the filters and the alignment restarted."""
+        fol = self._follow
+        self._smoother.reset()
+        fol.pose = None
+        self._place.mouth_offset = np.zeros(2)
+        fol.misses = 0
+        self._follower.reset()
+        fol.correction = None
+        best = self._acquirer.find(rgb, last)
+        if best is None:
+            return None
+        self._follower.start(rgb, best.frame)
+        fol.unit_ref = best.frame.unit
+        fol.score = None
+        return best
+
+
+def _layout_shift(layout: np.ndarray) -> dict[str, np.ndarray]:
+    """How far (face units) each feature of ``layout`` sits off the generic layout's, per rectangle name."""
+    d = np.asarray(layout) - GENERIC_LAYOUT
+    g = lambda *names: d[[_IDX[n] for n in names]].reshape(-1, 2).mean(0)  # noqa: E731
+    return {
+        "brow_left": g("brow_left"), "brow_right": g("brow_right"),
+        "eye_left": g("eye_left_upper", "eye_left_lower"), "eye_right": g("eye_right_upper", "eye_right_lower"),
+        "nose": g("nostril_left", "nostril_right"),
+        "mouth": g("lip_upper_outer", "lip_lower_outer"),
+    }

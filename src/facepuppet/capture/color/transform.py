@@ -1,0 +1,289 @@
+"""Colour space transformation of the paper's §3.1: Eq. 1 and the contrast enhancement C.
+
+Conventions: RGB uint8 images (H, W, 3); channels scaled to [0, 1]; hue in degrees [0, 360).
+
+M (magenta) and K (black) are the CMYK channels, V the HSV value, G(H) a bump on the lips' hue:
+
+    K = 1 - max(R, G, B),   M = (max(R, G, B) - G) / max(R, G, B),   V = max(R, G, B)
+
+Since K = 1 - V, the two terms w2 K + w3 V of Eq. 1 collapse to w2 + (w3 - w2) V: K only shifts the
+intensity by a constant. The weights keep the paper's four-term form (w1, w2, w3, w4), with the signs it
+prescribes (w1, w2, w4 >= 0, w3 < 0).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numba as nb
+import numpy as np
+
+from facepuppet._util.jit import INNER, KERNEL
+from facepuppet.capture.color.face import SKIN_Y_MAX, SKIN_Y_MIN
+from facepuppet.capture.color.rules.kernels import median_of_boxes, top_of_boxes
+
+__all__ = [
+    "LipHue",
+    "channels",
+    "lip_hue_table",
+    "transform",
+    "contrast",
+    "DEFAULT_WEIGHTS",
+    "SPECK",
+    "CONTRAST_LOW",
+    "CONTRAST_HIGH",
+    "hsv_u8",
+    "ycrcb_u8",
+    "skin_fraction",
+    "feature_intensity",
+]
+
+#: Generic weights (w1, w2, w3, w4) of Eq. 1: magenta, black, value, lip hue.
+DEFAULT_WEIGHTS = np.array([0.9, 0.2, -0.8, 0.5], dtype=np.float32)
+
+# Tuning constants of the contrast C in feature_intensity
+#                      unit        what it does
+CONTRAST_LOW = 0.15    # fraction    C starts rising this far from the skin level to the feature level
+CONTRAST_HIGH = 0.75   # fraction    C reaches 1 this far from the skin level to the feature level
+#: The feature level is at most this many times the brightest 3 x 3 mean's height above the skin level: a
+#: brighter pixel stands alone, a speck of noise (a light stretched to undo a colour cast turns a camera's block
+#: noise into specks).
+SPECK = 2.0
+#: Span of the smooth step, as a fraction of the skin-to-feature distance.
+CONTRAST_SPAN = CONTRAST_HIGH - CONTRAST_LOW
+
+
+@dataclass(frozen=True)
+class LipHue:
+    """The function G of Eq. 1: a Gaussian bump over hue, high on the lips' hue range.
+
+    Attributes
+    ----------
+    centre : float
+        Hue of the lips in degrees (red-magenta is near 350).
+    width : float
+        Standard deviation of the bump in degrees.
+    min_saturation : float
+        Below this HSV saturation (0..1) G is 0: grey pixels have no meaningful hue.
+    """
+
+    centre: float = 352.0
+    width: float = 14.0
+    min_saturation: float = 0.12
+
+
+def lip_hue_table(hue: LipHue) -> np.ndarray:
+    """G tabulated over OpenCV's 8-bit hue codes (0..179 = 0..358 degrees), padded to 256 entries.
+
+    Returns
+    -------
+    (256,) float32
+    """
+    deg = np.arange(256, dtype=np.float64) * 2.0
+    d = (deg - hue.centre + 180.0) % 360.0 - 180.0
+    table = np.exp(-0.5 * (d / hue.width) ** 2)
+    table[180:] = 0.0
+    return table.astype(np.float32)
+
+
+def channels(rgb: np.ndarray, hue_table: np.ndarray, min_saturation: float = 0.12) -> np.ndarray:
+    """The four channels (M, K, V, G(H)) of Eq. 1, each in [0, 1].
+
+    Parameters
+    ----------
+    rgb : (H, W, 3) uint8
+    hue_table : (256,) float32
+        G over 8-bit hue codes (:func:`lip_hue_table`).
+    min_saturation : float
+        Pixels less saturated than this get G = 0.
+
+    Returns
+    -------
+    (4, H, W) float32
+    """
+    hsv = cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV)
+    v = hsv[..., 2].astype(np.float32) * np.float32(1.0 / 255.0)
+    g = rgb[..., 1].astype(np.float32) * np.float32(1.0 / 255.0)
+    m = (v - g) / np.maximum(v, np.float32(1.0 / 255.0))
+    gh = hue_table[hsv[..., 0]]
+    gh[hsv[..., 1] < np.uint8(min_saturation * 255.0)] = 0.0
+    return np.stack([m, 1.0 - v, v, gh])
+
+
+def transform(rgb: np.ndarray, weights: np.ndarray, hue_table: np.ndarray, min_saturation: float = 0.12) -> np.ndarray:
+    """Eq. 1: I = w1 M + w2 K + w3 V + w4 G(H).
+
+    Parameters
+    ----------
+    rgb : (H, W, 3) uint8
+        A small crop (the face region): the cost is linear in its pixels.
+    weights : (4,) float
+        (w1, w2, w3, w4).
+    hue_table : (256,) float32
+        G tabulated by :func:`lip_hue_table`.
+    min_saturation : float
+
+    Returns
+    -------
+    (H, W) float32
+        The feature intensity, high on brows, lid lines, nostrils, lips and mouth opening, low on skin.
+    """
+    w1, w2, w3, w4 = (np.float32(x) for x in weights)
+    hsv = cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV)
+    v = hsv[..., 2].astype(np.float32)
+    g = rgb[..., 1].astype(np.float32)
+    # w1 (v - g) / v + (w3 - w2) v / 255 + w2 + w4 G(H)
+    out = (v - g) / np.maximum(v, np.float32(1.0))
+    out *= w1
+    out += v * ((w3 - w2) / np.float32(255.0))
+    out += w2
+    if w4 != 0.0:
+        gh = hue_table[hsv[..., 0]]
+        gh[hsv[..., 1] < np.uint8(min_saturation * 255.0)] = 0.0
+        out += w4 * gh
+    return out
+
+
+def contrast(intensity: np.ndarray, low: float, high: float, out: np.ndarray | None = None) -> np.ndarray:
+    """The contrast enhancement C: a smooth step from the skin level ``low`` to the feature level ``high``.
+
+    C(I) = x² (3 − 2x) with x = clip((I − low) / (high − low), 0, 1): pixels at or below the skin level go
+    to 0, pixels at or above the feature level go to 1, and the mid-tones are pushed apart (the slope at the
+    middle is 1.5 times that of a linear stretch).
+
+    Parameters
+    ----------
+    intensity : (H, W) float32
+        I of Eq. 1.
+    low, high : float
+        Skin and feature levels, ``high > low``.
+    out : (H, W) float32, optional
+        Where to write (may be ``intensity`` itself).
+
+    Returns
+    -------
+    (H, W) float32 in [0, 1]
+    """
+    span = max(float(high) - float(low), 1e-6)
+    x = np.subtract(intensity, np.float32(low), out=out)
+    x *= np.float32(1.0 / span)
+    np.clip(x, 0.0, 1.0, out=x)
+    y = x * x
+    x *= np.float32(-2.0)
+    x += np.float32(3.0)
+    x *= y
+    return x
+
+
+# OpenCV's fixed-point reciprocals for 8-bit RGB -> HSV (12 fractional bits).
+_S_DIV = np.r_[0, np.round(255.0 * 4096.0 / np.arange(1, 256))].astype(np.int64)
+_H_DIV = np.r_[0, np.round(180.0 * 4096.0 / (6.0 * np.arange(1, 256)))].astype(np.int64)
+
+
+@nb.njit(**INNER)
+def hsv_u8(r: int, g: int, b: int):
+    """OpenCV's 8-bit RGB -> HSV (hue code 0..179, saturation and value 0..255), same integer arithmetic."""
+    v = max(r, g, b)
+    diff = v - min(r, g, b)
+    s = (diff * _S_DIV[v] + 2048) >> 12
+    if diff == 0:
+        return 0, s, v
+    if v == r:
+        h = g - b
+    elif v == g:
+        h = b - r + 2 * diff
+    else:
+        h = r - g + 4 * diff
+    h = (h * _H_DIV[diff] + 2048) >> 12
+    if h < 0:
+        h += 180
+    return h, s, v
+
+
+@nb.njit(**INNER)
+def ycrcb_u8(r: int, g: int, b: int):
+    """OpenCV's 8-bit RGB -> YCrCb (same integer arithmetic): (Y, Cr, Cb)."""
+    y = (r * 4899 + g * 9617 + b * 1868 + 8192) >> 14
+    cr = min(max(((r - y) * 11682 + (128 << 14) + 8192) >> 14, 0), 255)
+    cb = min(max(((b - y) * 9241 + (128 << 14) + 8192) >> 14, 0), 255)
+    return y, cr, cb
+
+
+@nb.njit(**KERNEL)
+def skin_fraction(crop: np.ndarray, boxes: np.ndarray, table: np.ndarray) -> float:
+    """Fraction of the pixels of the rectangles whose (Cr, Cb) the skin table accepts (luma Y in
+    :data:`~.face.SKIN_Y_MIN` .. :data:`~.face.SKIN_Y_MAX`), as
+    :func:`~facepuppet.capture.color.face.skin_probability`."""
+    n = 0
+    hit = 0
+    for k in range(len(boxes)):
+        x0, y0, x1, y1 = boxes[k]
+        for yy in range(y0, y1):
+            for xx in range(x0, x1):
+                y, cr, cb = ycrcb_u8(np.int64(crop[yy, xx, 0]), np.int64(crop[yy, xx, 1]), np.int64(crop[yy, xx, 2]))
+                n += 1
+                if SKIN_Y_MIN <= y <= SKIN_Y_MAX and table[cr, cb]:
+                    hit += 1
+    return hit / n if n else 0.0
+
+
+@nb.njit(**KERNEL)
+def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarray, min_saturation: float,
+                      skin_boxes: np.ndarray, feature_boxes: np.ndarray):
+    """Eq. 1 and the contrast C over a face crop in one pass (as :func:`transform` and :func:`contrast`).
+
+    I = w1 (V - G) / V + (w3 - w2) V + w2 + w4 G(H) with 8-bit V and G as in
+    :func:`transform`; then C = smoothstep between the skin level (median of I
+    over ``skin_boxes``) + :data:`CONTRAST_LOW` and + :data:`CONTRAST_HIGH` of the way to the brightest I in
+    ``feature_boxes``
+    (a lone bright pixel is taken down to :data:`SPECK` times the brightest 3 x 3 mean's level).
+
+    Parameters
+    ----------
+    crop : (H, W, 3) uint8 RGB
+    weights : (4,) float
+    hue_table : (256,) float32
+    min_saturation : float
+        In [0, 1]; less saturated pixels get G = 0.
+    skin_boxes, feature_boxes : (N, 4) int64
+        Rectangles (x0, y0, x1, y1).
+
+    Returns
+    -------
+    raw : (H, W) float32
+        I of Eq. 1.
+    C : (H, W) float32
+        The contrast-enhanced intensity in [0, 1].
+    value : (H, W) uint8
+        HSV value V.
+    """
+    h, w = crop.shape[:2]
+    w1, w2, w3, w4 = weights[0], weights[1], weights[2], weights[3]
+    kv = (w3 - w2) / 255.0
+    s_min = np.uint8(min_saturation * 255.0)
+    raw = np.empty((h, w), np.float32)
+    value = np.empty((h, w), np.uint8)
+    use_hue = w4 != 0.0
+    for y in range(h):
+        for x in range(w):
+            r, g, b = np.int64(crop[y, x, 0]), np.int64(crop[y, x, 1]), np.int64(crop[y, x, 2])
+            v = max(r, g, b)
+            i = w1 * (v - g) / max(v, 1) + kv * v + w2
+            if use_hue:
+                hue, s, _ = hsv_u8(r, g, b)
+                if s >= s_min:
+                    i += w4 * hue_table[hue]
+            raw[y, x] = i
+            value[y, x] = v
+    low = median_of_boxes(raw, skin_boxes)
+    top, peak = top_of_boxes(raw, feature_boxes, low)
+    feat = low + min(top - low, SPECK * (peak - low))
+    lo = low + CONTRAST_LOW * (feat - low)
+    inv = 1.0 / max(CONTRAST_SPAN * (feat - low), 1e-6)
+    C = np.empty((h, w), np.float32)
+    for y in range(h):
+        for x in range(w):
+            t = min(max((raw[y, x] - lo) * inv, 0.0), 1.0)
+            C[y, x] = t * t * (3.0 - 2.0 * t)
+    return raw, C, value

@@ -1,0 +1,61 @@
+"""The colour tracker's small parts on known answers: the face likeness, the filters' switch, the job registry,
+the grouped configuration."""
+
+import numpy as np
+import pytest
+
+from facepuppet.capture.color import jobs
+from facepuppet.capture.color.config import ColorTrackerConfig, FilterConfig, MeasureConfig
+from facepuppet.capture.color.face import FaceFrame
+from facepuppet.capture.color.likeness import FaceTemplate
+from facepuppet.capture.color.profile import GENERIC_LAYOUT
+from facepuppet.capture.color.smoothing import CurveSmoother
+from facepuppet.capture.curves import CURVE_NAMES
+
+
+def _template(px=32.0):
+    from facepuppet.capture.color.face import CROP_EXTENT
+
+    size = (int(round((CROP_EXTENT[2] - CROP_EXTENT[0]) * px)), int(round((CROP_EXTENT[3] - CROP_EXTENT[1]) * px)))
+    return FaceTemplate((GENERIC_LAYOUT - CROP_EXTENT[:2]) * px, size, px)
+
+
+def test_the_template_is_fully_like_itself_and_unlike_its_negative():
+    t = _template()
+    same = np.eye(2, 3)
+    assert t.score(t.image, same) == pytest.approx(1.0, abs=1e-6)
+    assert t.score(-t.image, same) == pytest.approx(-1.0, abs=1e-6)
+    shifted = np.array([[1.0, 0.0, 6.0], [0.0, 1.0, 0.0]])        # the layout placed 6 pixels to the right
+    assert t.score(t.image, shifted) < 0.9
+
+
+def test_a_disabled_smoother_passes_the_curves_through():
+    curves = np.random.default_rng(0).normal(size=(len(CURVE_NAMES), 4, 2)) * 10 + 100
+    frame = FaceFrame(np.array([100.0, 100.0]), np.array([40.0, 0.0]))
+    off = CurveSmoother(FilterConfig(enabled=False), lids=True, shaped=np.zeros(0, int))
+    for k in range(3):
+        assert off(curves, frame, 33 * k) is curves
+
+
+def test_wait_pending_waits_for_every_job_once():
+    waited = []
+
+    class Job:
+        def wait(self):
+            waited.append(self)
+
+    a, b = Job(), Job()
+    jobs.add(a)
+    jobs.add(b)
+    assert jobs.pending()[-2:] == (a, b)
+    jobs.wait_pending()
+    assert waited == [b, a] and jobs.pending() == ()
+
+
+def test_configs_are_grouped_keyword_only_and_checked():
+    cfg = ColorTrackerConfig()
+    assert cfg.measure.px == 48.0 and cfg.filters.enabled and cfg.landmarks.enabled
+    with pytest.raises(TypeError):
+        MeasureConfig(48.0)                         # keyword-only
+    with pytest.raises(ValueError, match=r"outline_parts: unknown \['nose'\]"):
+        MeasureConfig(outline_parts=("nose",))

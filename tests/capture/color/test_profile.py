@@ -1,0 +1,219 @@
+"""Performer profile: save/load, the 11-10-4 colour network, and weights re-estimated as the light changes (§3.1)."""
+
+import zipfile
+
+import cv2
+import numpy as np
+import pytest
+
+from facepuppet.capture.color import train as cal
+from facepuppet.capture.color.net import (
+    N_INPUTS,
+    WEIGHT_SCALE,
+    ColourNet,
+    constrain_weights,
+    fisher_separation,
+    separating_weights,
+    subarea_means,
+)
+from facepuppet.capture.color.profile import (
+    GENERIC_LAYOUT,
+    GENERIC_MOUTH_REACH,
+    PROFILE_VERSION,
+    Profile,
+    default_profile,
+    load_profile,
+    save_profile,
+)
+from facepuppet.capture.color.train import train_profile
+from facepuppet.capture.color.transform import channels, lip_hue_table
+from facepuppet.capture.curves import CURVE_NAMES
+from facepuppet.errors import FacepuppetError
+
+
+def _net(rng):
+    x = rng.normal(size=(40, N_INPUTS))
+    y = constrain_weights(np.column_stack([1 + x[:, 0] * 0.1, np.full(40, 0.3), -1 + x[:, 1] * 0.1, 0.5 + 0 * x[:, 2]]))
+    return ColourNet.fit(x, y, seed=0)
+
+
+def test_default_profile_round_trip(tmp_path):
+    path = tmp_path / "p.npz"
+    save_profile(path, default_profile())
+    got = load_profile(path)
+    assert got.name == "generic" and got.net == {} and got.lids == {}
+    np.testing.assert_array_equal(got.layout, GENERIC_LAYOUT)
+    assert got.skin == default_profile().skin and got.lip_hue == default_profile().lip_hue
+
+
+def test_round_trip_with_network_predicts_the_same(tmp_path, rng):
+    net = _net(rng)
+    lids = {"coef": rng.normal(size=(2, 128)), "intercept": np.array([-0.1, 0.1])}
+    prof = Profile(layout=GENERIC_LAYOUT + 0.01, weights=np.array([0.5, 0.5, -1.0, 0.4]), net=net.to_arrays(),
+                   lids=lids, name="ann")
+    path = tmp_path / "ann.npz"
+    save_profile(path, prof)
+    got = load_profile(path)
+    assert got.name == "ann"
+    np.testing.assert_allclose(got.layout, prof.layout)
+    np.testing.assert_allclose(got.weights, prof.weights)
+    x = rng.normal(size=(5, N_INPUTS))
+    np.testing.assert_allclose(ColourNet.from_arrays(got.net).predict(x), net.predict(x), rtol=1e-6)
+    assert set(got.lids) == {"coef", "intercept"}
+    np.testing.assert_array_equal(got.lids["coef"], lids["coef"])
+    with np.load(path, allow_pickle=False) as d:          # loads without pickle
+        assert int(d["version"]) == PROFILE_VERSION
+
+
+def test_mouth_reach_round_trip_and_older_files(tmp_path):
+    path = tmp_path / "p.npz"
+    save_profile(path, Profile(mouth_reach=0.21))
+    assert load_profile(path).mouth_reach == pytest.approx(0.21)
+    with np.load(path) as d:
+        arrays = {k: d[k] for k in d.files if k != "mouth_reach"}
+    older = tmp_path / "older.npz"
+    np.savez(older, **arrays)
+    assert load_profile(older).mouth_reach == GENERIC_MOUTH_REACH
+
+
+def test_mouth_reach_learned_from_the_corners_offsets():
+    """Corners 0.16 face units in from the mean in one frame: reach 0.16 + 0.03; never below the generic one."""
+    layouts = np.repeat(GENERIC_LAYOUT[None], 5, axis=0)
+    c = CURVE_NAMES.index("lip_upper_outer")
+    layouts[2, c, 0, 0] += 0.16
+    layouts[2, c, 3, 0] -= 0.16
+    assert cal.mouth_reach_of(layouts, GENERIC_LAYOUT, GENERIC_MOUTH_REACH) == pytest.approx(0.19)
+    assert cal.mouth_reach_of(layouts[:2], GENERIC_LAYOUT, GENERIC_MOUTH_REACH) == GENERIC_MOUTH_REACH
+    layouts[2, c, 0, 1] += 1.0
+    assert cal.mouth_reach_of(layouts, GENERIC_LAYOUT, GENERIC_MOUTH_REACH) == pytest.approx(0.35)
+
+
+def test_corrupt_truncated_future_and_incomplete_files(tmp_path):
+    good = tmp_path / "good.npz"
+    save_profile(good, default_profile())
+    bad = tmp_path / "bad.npz"
+    bad.write_bytes(b"this is not a profile")
+    with pytest.raises(FacepuppetError, match="bad.npz"):
+        load_profile(bad)
+    cut = tmp_path / "cut.npz"
+    cut.write_bytes(good.read_bytes()[:200])
+    with pytest.raises(FacepuppetError, match="cut.npz"):
+        load_profile(cut)
+    with pytest.raises(FacepuppetError, match="no such profile"):
+        load_profile(tmp_path / "missing.npz")
+    with np.load(good) as d:
+        arrays = {k: d[k] for k in d.files}
+    future = tmp_path / "future.npz"
+    np.savez(future, **{**arrays, "version": np.int64(PROFILE_VERSION + 1)})
+    with pytest.raises(FacepuppetError, match="newer"):
+        load_profile(future)
+    partial = tmp_path / "partial.npz"
+    np.savez(partial, **{k: v for k, v in arrays.items() if k != "layout"})
+    with pytest.raises(FacepuppetError, match="layout"):
+        load_profile(partial)
+    assert zipfile.is_zipfile(good)
+
+
+def test_network_arrays_are_checked():
+    with pytest.raises(ValueError, match="w0"):
+        ColourNet.from_arrays({})
+    bad = {"w0": np.zeros((3, 10)), "b0": np.zeros(10), "w1": np.zeros((10, 4)), "b1": np.zeros(4),
+           "x_mean": np.zeros(N_INPUTS), "x_std": np.ones(N_INPUTS)}
+    with pytest.raises(ValueError, match="w0"):
+        ColourNet.from_arrays(bad)
+
+
+def test_constrained_weights_have_the_papers_signs_and_fixed_scale():
+    w = constrain_weights(np.array([[-1.0, 2.0, 0.5, -0.2], [1.0, 1.0, -1.0, 1.0]]))
+    assert np.all(w[:, [0, 1, 3]] >= 0) and np.all(w[:, 2] < 0)
+    np.testing.assert_allclose(np.abs(w).sum(axis=1), WEIGHT_SCALE, rtol=1e-6)
+
+
+def test_separating_weights_on_pixels_that_differ_only_in_value(rng):
+    """Features darker than skin and otherwise alike: only K and V matter, with w2 = -w3 > 0."""
+    skin_v = rng.uniform(0.7, 0.8, 500)
+    feat_v = rng.uniform(0.2, 0.3, 500)
+    other = rng.uniform(0.2, 0.3, (1000, 2))
+    skin = np.column_stack([other[:500, 0], 1 - skin_v, skin_v, other[:500, 1]])
+    feat = np.column_stack([other[500:, 0], 1 - feat_v, feat_v, other[500:, 1]])
+    w = separating_weights(feat, skin)
+    assert w[1] > 0 and w[2] < 0 and w[1] == pytest.approx(-w[2], rel=1e-3)
+    assert abs(w[0]) < 0.05 * WEIGHT_SCALE and abs(w[3]) < 0.05 * WEIGHT_SCALE
+
+
+def test_subarea_means_of_a_uniform_crop():
+    crop = np.zeros((134, 125, 3), np.uint8)
+    crop[:] = (200, 100, 50)
+    x = subarea_means(crop, 48.0)
+    assert x.shape == (N_INPUTS,)
+    np.testing.assert_allclose(x[:9], (0.299 * 200 + 0.587 * 100 + 0.114 * 50) / 255, atol=1e-5)
+    np.testing.assert_allclose(x[9:], [200 / 350, 50 / 350], atol=1e-5)
+
+
+def test_calibration_rejects_mismatched_input():
+    with pytest.raises(ValueError, match="curves"):
+        train_profile([np.zeros((8, 8, 3), np.uint8)], np.zeros((1, 3, 4, 2)))
+    with pytest.raises(ValueError, match="same length"):
+        train_profile([], np.zeros((1, 12, 4, 2)))
+    with pytest.raises(FacepuppetError, match="no labelled frame"):
+        train_profile([np.zeros((8, 8, 3), np.uint8)], np.full((1, 12, 4, 2), np.nan))
+
+
+@pytest.fixture(scope="module")
+def labelled_clip(assets, face_landmarker):
+    """200 frames of performer_c and MediaPipe's curves on them."""
+    from facepuppet.capture.tracking import make_tracker
+
+    cap = cv2.VideoCapture(str(assets / "video" / "performer_c.mp4"))
+    frames = []
+    for _ in range(200):
+        ok, bgr = cap.read()
+        assert ok
+        frames.append(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
+    cap.release()
+    wanted = list(range(0, 60, 3)) + list(range(100, 200, 10))
+    tracker = make_tracker("mediapipe", model_path=face_landmarker, running_mode="image")
+    try:
+        curves = {i: tracker.track(frames[i], 33 * i).curves for i in wanted}
+    finally:
+        tracker.close()
+    return frames, curves
+
+
+def _separation(frames, curves, idx, light, weights_of):
+    out = []
+    for i in idx:
+        rgb = cal.relight(frames[i], *light)
+        fr = cal.label_frame(curves[i])
+        crop, A, size = cal.face_crop(rgb, fr)
+        feat, skin = cal.feature_and_skin_masks(curves[i] @ A[:, :2].T + A[:, 2], size)
+        ch = channels(crop, weights_of.table)
+        image = np.tensordot(weights_of(crop), ch, 1)
+        out.append(fisher_separation(image[feat], image[skin]))
+    return float(np.mean(out))
+
+
+def test_reestimated_weights_keep_features_separable_when_the_light_changes(labelled_clip):
+    frames, curves = labelled_clip
+    train, test = list(range(0, 60, 3)), list(range(100, 200, 10))
+    prof = train_profile([frames[i] for i in train], np.stack([curves[i] for i in train]), augment=6)
+    net = ColourNet.from_arrays(prof.net)
+    table = lip_hue_table(prof.lip_hue)
+
+    def reestimated(crop):
+        return net.predict(subarea_means(crop, 48.0))
+
+    def fixed(crop):
+        return prof.weights
+
+    reestimated.table = fixed.table = table
+    same = (1.0, 0.0, 1.0)
+    n0 = _separation(frames, curves, test, same, reestimated)
+    f0 = _separation(frames, curves, test, same, fixed)
+    for light in ((0.5, 0.25, 1.0), (0.6, -0.2, 1.0)):            # darker and warmer, darker and cooler
+        n1 = _separation(frames, curves, test, light, reestimated)
+        f1 = _separation(frames, curves, test, light, fixed)
+        assert n1 > f1, (light, n1, f1)
+        assert n1 > 0.85 * n0, (light, n1, n0)
+    cooler = _separation(frames, curves, test, (0.6, -0.2, 1.0), fixed)
+    assert cooler < 0.8 * f0                                     # fixed weights degrade there
