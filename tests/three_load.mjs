@@ -1,9 +1,11 @@
 // Load one GLB with three.js's GLTFLoader, play its first animation with an AnimationMixer, and print on
 // stdout, as JSON, what a three.js page would see: the meshes (morph influences, dictionary), the clips
 // (duration, tracks) and, at each requested time, the morph influences, the quaternion of every named node
-// and the world-space positions of the morphed vertices of the first morphed mesh.
-// Usage: node three_load.mjs PREFIX FILE TIME...   (PREFIX holds node_modules/three)
-// No polyfills: the file has no textures, so no image loading; TextDecoder is Node's own.
+// and the world-space positions of the morphed vertices of the first morphed mesh (``positions``) and of every
+// morphed mesh by name (``meshPositions``; skinned meshes skinned).
+// Usage: [FP_CLIP=NAME] node three_load.mjs PREFIX FILE TIME...   (PREFIX holds node_modules/three; FP_CLIP
+// plays the clip of that name instead of the first).
+// Textures do not load in Node: the image loader fails at once, GLTFLoader reports it on stderr and goes on.
 import fs from "node:fs";
 import path from "node:path";
 import { pathToFileURL } from "node:url";
@@ -14,6 +16,12 @@ const load = (rel) => import(pathToFileURL(path.join(root, rel)).href);
 // the same file that GLTFLoader's own `import ... from "three"` resolves to, so one copy of the library
 const THREE = await load("build/three.module.js");
 const { GLTFLoader } = await load("examples/jsm/loaders/GLTFLoader.js");
+// Node has no image decoder: an embedded image fails to load (GLTFLoader reports it and goes on without it)
+globalThis.self ??= globalThis;  // GLTFLoader reads self.URL for embedded images
+THREE.TextureLoader.prototype.load = function (url, onLoad, onProgress, onError) {
+    if (onError) onError(new Error("images do not load in Node"));
+    return new THREE.Texture();
+};
 
 const bytes = fs.readFileSync(file);
 const buffer = bytes.buffer.slice(bytes.byteOffset, bytes.byteOffset + bytes.byteLength);
@@ -53,13 +61,26 @@ function snapshot(time) {
         }
         out.positions = positions;
     }
+    out.meshPositions = {};
+    for (const m of meshes.filter((x) => x.morphTargetInfluences)) {
+        const list = [];
+        for (let i = 0; i < m.geometry.attributes.position.count; i++) {
+            m.getVertexPosition(i, vertex);
+            vertex.applyMatrix4(m.matrixWorld);
+            list.push(vertex.toArray());
+        }
+        out.meshPositions[m.name] = list;
+    }
     return out;
 }
 
 const samples = [];
 if (gltf.animations.length) {
     const mixer = new THREE.AnimationMixer(scene);
-    const action = mixer.clipAction(gltf.animations[0]);
+    const wanted = process.env.FP_CLIP;
+    const clip = wanted ? gltf.animations.find((c) => c.name === wanted) : gltf.animations[0];
+    if (!clip) throw new Error(`no animation named ${wanted}`);
+    const action = mixer.clipAction(clip);
     action.setLoop(THREE.LoopOnce, 1);
     action.clampWhenFinished = true;
     action.play();

@@ -28,13 +28,15 @@ class ThreeLoader:
     def __init__(self, prefix: Path) -> None:
         self.prefix = prefix
 
-    def play(self, path: str | os.PathLike, times: Sequence[float] = ()) -> dict:
-        """Load ``path`` with GLTFLoader, play its first animation to each of ``times`` (ascending, seconds).
+    def play(self, path: str | os.PathLike, times: Sequence[float] = (), clip: str | None = None) -> dict:
+        """Load ``path`` with GLTFLoader, play its first animation (or the one named ``clip``) to each of
+        ``times`` (ascending, seconds).
 
         Returns the script's report: ``meshes``, ``clips`` and one entry of ``samples`` per time.
         """
         args = [shutil.which("node"), str(SCRIPT), str(self.prefix), str(path), *(repr(float(t)) for t in times)]
-        done = subprocess.run(args, capture_output=True, text=True, timeout=120)
+        env = dict(os.environ, **({"FP_CLIP": clip} if clip else {}))
+        done = subprocess.run(args, capture_output=True, text=True, timeout=120, env=env)
         assert done.returncode == 0, f"three.js could not load {path}: {done.stderr.strip()}"
         return json.loads(done.stdout)
 

@@ -384,10 +384,14 @@ def test_validator_reports_errors(tmp_path, gltf_validator):  # noqa: F811
         gltf_validator.check(tmp_path / "bad.glb")
 
 
-def test_compressed_meshes_are_refused(tmp_path):
+def test_compressed_mesh_without_its_extra_names_the_install(tmp_path, monkeypatch):
+    import sys
+
     a = one_mesh_asset(POS, [POS, POS])
     a.g.extensionsUsed = a.g.extensionsRequired = ["KHR_draco_mesh_compression"]
-    with pytest.raises(FacepuppetError, match="compressed with KHR_draco_mesh_compression"):
+    a.g.meshes[0].primitives[0].extensions = {"KHR_draco_mesh_compression": {"bufferView": 0, "attributes": {}}}
+    monkeypatch.setitem(sys.modules, "DracoPy", None)  # the extra not installed
+    with pytest.raises(FacepuppetError, match=r"KHR_draco_mesh_compression.*pip install 'facepuppet\[draco\]'"):
         read_gltf(a.save(tmp_path / "draco.glb"))
 
 

@@ -14,7 +14,7 @@ from facepuppet.cli import main
 from facepuppet.errors import FacepuppetError
 from facepuppet.io.character import Character, save_character
 from facepuppet.io.performer import Performer, save_performer
-from facepuppet.pipeline.rig import RIG_FORMAT, Rig, fit_rig, load_rig, pair_by_name, save_rig
+from facepuppet.pipeline.rig import RIG_FORMAT, RIG_VERSION, Rig, fit_rig, load_rig, pair_by_name, save_rig
 
 
 class StandIn:
@@ -103,7 +103,7 @@ def test_round_trip(tmp_path, rng, stand_in):
     for key, value in rig.mapper.a.items():
         np.testing.assert_array_equal(back.mapper.a[key], value)
     with np.load(tmp_path / "rig.npz", allow_pickle=False) as raw:
-        assert str(raw["format"]) == RIG_FORMAT and int(raw["version"]) == 1
+        assert str(raw["format"]) == RIG_FORMAT and int(raw["version"]) == RIG_VERSION
 
 
 def _rewrite(src, dst, drop=(), **changes):

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 from dataclasses import replace
+from pathlib import Path
 
 #: How a camera is named wherever a medium is (as in ``track`` and ``animate``).
 CAMERA_PREFIX = "camera:"
@@ -32,7 +33,8 @@ def register(subparsers) -> None:
                      help="capture live from camera N, as MEDIA camera:N does (camera:VIDEO: a video standing "
                           "in for the camera)")
     p.add_argument("--character", metavar="CHARACTER",
-                   help="the character (.glb or OBJ folder) whose key-models to capture key expressions for")
+                   help="the character (.glb / .vrm, OBJ folder, or built-in: toy) whose key-models to capture "
+                        "key expressions for")
     p.add_argument("--backend", default="color", choices=("color", "mediapipe"),
                    help="tracker making the feature points; use the one you will animate with (default color)")
     p.add_argument("--profile", metavar="PROFILE.npz", help="performer profile of the colour tracker")
@@ -66,6 +68,28 @@ def _camera(args: argparse.Namespace) -> str | None:
     return None
 
 
+def _check_auto(args: argparse.Namespace, character, scores) -> None:
+    """Everything ``--auto`` lacks, named in one error: the character, and MediaPipe's package and model when
+    no track brings the blendshape scores."""
+    import importlib.util
+    import os
+
+    missing = []
+    if character is None:
+        missing.append("--character (its ARKit key-model names say what to look for)")
+    if scores is None:
+        model = args.model or os.environ.get("FACEPUPPET_FACE_LANDMARKER")
+        if not model:
+            missing.append("--model face_landmarker.task (or $FACEPUPPET_FACE_LANDMARKER): MediaPipe's blendshape "
+                           "scores pick the frames")
+        elif not Path(model).expanduser().is_file():
+            missing.append(f"the face landmarker model {model} (not found)")
+        if importlib.util.find_spec("mediapipe") is None:
+            missing.append("the mediapipe package: pip install 'facepuppet[mediapipe]'")
+    if missing:
+        raise ValueError("--auto needs " + "; and ".join(missing))
+
+
 def run(args: argparse.Namespace) -> int:
     from facepuppet.io.performer import save_performer
     from facepuppet.pipeline import examples
@@ -78,9 +102,9 @@ def run(args: argparse.Namespace) -> int:
         window=args.window)
     character = None
     if args.character:
-        from facepuppet.io.character import load_character
+        from facepuppet.demo.characters import load_character_arg
 
-        character = load_character(args.character)
+        character = load_character_arg(args.character)
     track = None
     if args.track:
         from facepuppet.io.track import load_track
@@ -108,9 +132,8 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError("MEDIA (the video of the key expressions) is required with --marks and --auto")
         source = args.media
         if args.auto:
-            if character is None:
-                raise ValueError("--auto needs --character (its ARKit key-model names say what to look for)")
             scores = track if track is not None and track.extras and "blendshapes" in track.extras else labels
+            _check_auto(args, character, scores)
             result = examples.from_auto(args.media, character.names, config=config, scores_track=scores,
                                         track=track if track is not None and track.backend == args.backend
                                         else None)

@@ -31,6 +31,8 @@ def register(subparsers) -> None:
     p.add_argument("--model", metavar="TASK", default=None,
                    help="MediaPipe face_landmarker.task of --tracker mediapipe (default $FACEPUPPET_FACE_LANDMARKER)")
     p.add_argument("--no-preview", action="store_true", help="skip the side-by-side preview video")
+    p.add_argument("--monkey", action="store_true",
+                   help="also animate the built-in Monkey from the same performance (preview-monkey.mp4)")
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     p.set_defaults(run=run,
                    inputs=(("model", "--model"),),
@@ -51,7 +53,8 @@ def run(args: argparse.Namespace) -> int:
     if args.model is not None and args.tracker != "mediapipe":
         raise ValueError(f"--model is for --tracker mediapipe, not --tracker {args.tracker}")
     config = DemoConfig(seconds=args.seconds, seed=args.seed, tracker=args.tracker, preview=not args.no_preview,
-                        progress=False if args.no_progress else None, model=args.model)
+                        progress=False if args.no_progress else None, model=args.model,
+                        monkey=args.monkey)
     print(f"facepuppet demo: tracking with {TRACKERS[config.tracker]}")
     if config.tracker == "truth":
         print("  (no image is analysed: the chain runs on exact curves; the colour tracker is the default)")

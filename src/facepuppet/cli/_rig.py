@@ -18,7 +18,8 @@ def register(subparsers) -> None:
     p.add_argument("--performer", required=True, metavar="EXAMPLES.npz",
                    help="key expressions file (facepuppet calibrate)")
     p.add_argument("--character", required=True, metavar="CHARACTER",
-                   help=".glb / .gltf with morph targets, or a folder of OBJ files (neutral + one per key-model)")
+                   help=".glb / .gltf / .vrm with morph targets, a folder of OBJ files (neutral + one per key-model), "
+                        "or a built-in character by name: toy")
     p.add_argument("-o", "--output", required=True, metavar="RIG.npz", help="rig file to write")
     p.add_argument("--method", default=None,
                    help="mapping method by name (default: the most accurate); the one fitted is printed")
@@ -33,13 +34,13 @@ def register(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
+    from facepuppet.demo.characters import load_character_arg
     from facepuppet.errors import FacepuppetError
-    from facepuppet.io.character import load_character
     from facepuppet.io.performer import load_performer
     from facepuppet.pipeline.rig import fit_rig, save_rig
 
     performer = load_performer(args.performer)
-    character = load_character(args.character, neutral=args.neutral, mesh=args.mesh)
+    character = load_character_arg(args.character, neutral=args.neutral, mesh=args.mesh)
     moved = np.abs(performer.examples - performer.neutral[None]).reshape(len(performer.examples), -1).max(axis=1)
     if not (moved > 0).any():
         raise FacepuppetError(f"--performer {args.performer}: no key expression differs from the neutral face")

@@ -94,4 +94,7 @@ def run(args: argparse.Namespace) -> int:
         writer.set_media(media_record(args.media, writer.n_frames))
         writer.finish()
     log.info("%s: %d of %d frames tracked -> %s", args.media, writer.n_valid, writer.n_frames, args.output)
+    wrote = ", ".join(x for x in (args.output, args.preview) if x)
+    print(f"track: {writer.n_frames} frames ({writer.n_valid} with a face), {args.backend} tracker; "
+          f"wrote {wrote}")
     return 0

@@ -42,7 +42,7 @@ from __future__ import annotations
 import logging
 import os
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -75,7 +75,7 @@ FILES: dict[str, str] = {
     "calibration-marks.csv": "the marks file: frame of each held expression, span of the head motion",
     "performer-profile.npz": "the colour tracker's performer profile trained on the calibration video",
     "performer.npz": "the performer's key expressions (facepuppet calibrate)",
-    "toy.glb": "the Toy character with its 13 key-models as morph targets",
+    "toy.glb": "the Toy character (coloured, with normals) with its 13 key-models as morph targets",
     "rig.npz": "the fitted rig (facepuppet rig)",
     "performance.mp4": "the input video: the performer acting, with head motion",
     "track.npz": "the track of the performance",
@@ -83,7 +83,12 @@ FILES: dict[str, str] = {
     "animation.glb": "the Toy animated by the performance (morph weights + head rotation)",
     "animation.csv": "the animation's weights, Live Link Face layout",
     "preview.mp4": "input with tracked curves (left) beside the animated Toy (right)",
+    "monkey.glb": "the Monkey, rigged on the same key expressions (--monkey)",
+    "monkey-animation.glb": "the Monkey animated by the same performance (--monkey)",
+    "preview-monkey.mp4": "the same performance on the Monkey: each character keeps its own personality",
 }
+#: Files written only with ``DemoConfig.monkey``.
+MONKEY_FILES = ("monkey.glb", "monkey-animation.glb", "preview-monkey.mp4")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -107,6 +112,9 @@ class DemoConfig:
         Progress bars; None shows them on a terminal.
     model : str or None
         The Face Landmarker model of the ``mediapipe`` tracker; None takes ``$FACEPUPPET_FACE_LANDMARKER``.
+    monkey : bool
+        Also rig the built-in Monkey on the same key expressions and animate it from the same track
+        (:data:`MONKEY_FILES`; the error figure is the Toy's).
     """
 
     seconds: float = 8.0
@@ -117,6 +125,7 @@ class DemoConfig:
     preview: bool = True
     progress: bool | None = None
     model: str | None = None
+    monkey: bool = False
 
     def __post_init__(self) -> None:
         if self.tracker not in TRACKERS:
@@ -242,6 +251,24 @@ def _write_marks(path: Path, marks: dict[str, int], spans: dict[str, tuple[int, 
         tmp.write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
+def _monkey(files: dict, performer, track, config: DemoConfig) -> None:
+    """The Monkey rigged on the performer's key expressions and animated from the same track."""
+    from facepuppet._util.atomic import atomic_path
+    from facepuppet.demo.monkey import monkey_character, monkey_colors
+    from facepuppet.io.gltf import colored_glb
+    from facepuppet.pipeline.animate import AnimateConfig, animate
+    from facepuppet.pipeline.rig import fit_rig
+    from facepuppet.pipeline.tracking import TrackerOptions
+
+    monkey = monkey_character()
+    monkey = replace(monkey, source=colored_glb(monkey, monkey_colors()))
+    with atomic_path(files["monkey.glb"]) as tmp:
+        tmp.write_bytes(monkey.source)
+    rig, _ = fit_rig(performer, monkey)
+    animate(files["performance.mp4"], rig, glb=files["monkey-animation.glb"], preview=files.get("preview-monkey.mp4"),
+            track=track, colors=monkey_colors(), config=AnimateConfig(tracker=TrackerOptions(progress=config.progress)))
+
+
 def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig | None = None) -> DemoResult:
     """Run the demo, writing :data:`FILES` into ``folder`` (created if needed).
 
@@ -257,7 +284,7 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
     from facepuppet.demo.script import calibration_script, performance_script
     from facepuppet.demo.toy import toy_character, toy_colors
     from facepuppet.export.overlay import write_overlay_video
-    from facepuppet.io.gltf import write_glb
+    from facepuppet.io.gltf import colored_glb
     from facepuppet.io.performer import load_performer, save_performer
     from facepuppet.io.track import save_track
     from facepuppet.pipeline.animate import AnimateConfig, animate
@@ -277,6 +304,10 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
         files.pop("performer-profile.npz")
     if not config.preview:
         files.pop("preview.mp4")
+        files.pop("preview-monkey.mp4")
+    if not config.monkey:
+        for name in MONKEY_FILES:
+            files.pop(name, None)
     timings: dict[str, float] = {}
     progress = config.progress is not False
     t_start = time.perf_counter()
@@ -342,12 +373,16 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
     cal_track = track_video(files["calibration.mp4"], cal_curves)
     t = step("track", t)
     toy = toy_character()
+    toy = replace(toy, source=colored_glb(toy, toy_colors()))  # materials: the animated GLB is the Toy's scene
     examples = from_marks(files["calibration.mp4"], files["calibration-marks.csv"], names=toy.names,
                           config=ExamplesConfig(), track=cal_track)
     save_performer(files["performer.npz"], examples)
     rig, _pairing = fit_rig(load_performer(files["performer.npz"]), toy)
     save_rig(files["rig.npz"], rig)
-    write_glb(files["toy.glb"], toy)
+    from facepuppet._util.atomic import atomic_path
+
+    with atomic_path(files["toy.glb"]) as tmp:
+        tmp.write_bytes(toy.source)
     t = step("calibrate + rig", t)
 
     track = track_video(files["performance.mp4"], perf_curves)
@@ -357,6 +392,9 @@ def run_demo(folder: str | os.PathLike = "facepuppet-demo", config: DemoConfig |
                    preview=files.get("preview.mp4"), track=track, colors=toy_colors(),
                    config=AnimateConfig(tracker=TrackerOptions(progress=config.progress)))
     t = step("animate + preview" if config.preview else "animate", t)
+    if config.monkey:
+        _monkey(files, load_performer(files["performer.npz"]), track, config)
+        t = step("monkey", t)
     write_overlay_video(files["overlay.mp4"], files["performance.mp4"], track)
     t = step("overlay", t)
 

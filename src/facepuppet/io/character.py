@@ -67,7 +67,7 @@ def _read(path: Path, neutral, mesh) -> Character:
         raise FacepuppetError(f"{path}: no such file or folder")
     if neutral is not None:
         raise ValueError("neutral: only for a folder of OBJ files")
-    if suffix in (".glb", ".gltf"):
+    if suffix in (".glb", ".gltf", ".vrm"):
         return read_gltf(path, mesh=mesh)
     if suffix == ".obj":
         raise FacepuppetError(f"{path}: one OBJ holds no key-models; give the folder with the neutral OBJ and "

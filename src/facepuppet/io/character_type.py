@@ -6,7 +6,7 @@ above them (:mod:`facepuppet.io.character`) all import it from below.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -29,6 +29,9 @@ class Character:
         Triangles, indices into the vertices.
     name : str
         The character's name.
+    source : bytes or None
+        The whole glTF scene it was read from, as one self-contained GLB (:mod:`facepuppet.io.scene`), so that
+        an animation can be written into it; None for characters made in memory or read from OBJ files.
     """
 
     neutral: np.ndarray
@@ -36,6 +39,7 @@ class Character:
     names: tuple[str, ...]
     faces: np.ndarray | None = None
     name: str = "character"
+    source: bytes | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         n, t = np.shape(self.neutral), np.shape(self.targets)

@@ -14,6 +14,7 @@ morphing, base + Σ w_i δ_i, is the paper's Eq. 14.
 from __future__ import annotations
 
 import base64
+import dataclasses
 import logging
 import os
 from pathlib import Path
@@ -24,16 +25,16 @@ from facepuppet.errors import FacepuppetError
 from facepuppet.io.character_type import Character
 from facepuppet.io.external import read_external
 from facepuppet.io.glb import ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, GltfBuilder, vertex_normals
+from facepuppet.io.keymodels import keymodel_binds, morph_names
+from facepuppet.io.scene import load_scene
 
-__all__ = ["read_gltf", "write_glb", "add_character", "quaternion_matrix"]
+__all__ = ["read_gltf", "write_glb", "add_character", "colored_glb", "quaternion_matrix"]
 
 log = logging.getLogger(__name__)
 
 _DTYPE = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}
 #: Divisor of normalised integer components (glTF 2.0 §3.11: signed values clamp at -1).
 _NORM = {5120: 127.0, 5121: 255.0, 5122: 32767.0, 5123: 65535.0, 5125: 4294967295.0}
-#: Required extensions that store vertices where plain accessors cannot read them.
-_COMPRESSION = {"KHR_draco_mesh_compression", "EXT_meshopt_compression", "KHR_meshopt_compression"}
 _WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}
 #: Most items one accessor may hold (vertices, indices): a bound on what a damaged file can ask to allocate.
 _MAX_COUNT = 50_000_000
@@ -61,18 +62,13 @@ def read_gltf(path: str | os.PathLike, *, mesh: str | int | None = None) -> Char
     path = Path(path)
     if not path.is_file():
         raise FacepuppetError(f"{path}: no such file")
+    scene = load_scene(path)  # one embedded buffer, compression decoded (io/scene.py)
     try:
-        with open(path, "rb") as fh:
-            binary = fh.read(4) == b"glTF"  # sniff: a GLB named .gltf (or the reverse) still reads
-        gltf = (pygltflib.GLTF2.load_binary if binary else pygltflib.GLTF2.load_json)(str(path))
+        gltf = pygltflib.GLTF2.load_from_bytes(scene.glb())
     except Exception as e:  # pygltflib raises a mix of json, struct and key errors
         raise FacepuppetError(f"{path}: cannot read glTF ({type(e).__name__}: {e})") from e
     if gltf is None:
         raise FacepuppetError(f"{path}: not a glTF or GLB file")
-    unsupported = sorted(set(gltf.extensionsRequired or []) & _COMPRESSION)
-    if unsupported:
-        raise FacepuppetError(f"{path}: compressed with {', '.join(unsupported)}, which facepuppet does not "
-                              f"decode; export the character without mesh compression")
     reader = _Reader(gltf, path)
     if not gltf.meshes:
         raise FacepuppetError(f"{path}: no mesh in the file")
@@ -86,10 +82,30 @@ def read_gltf(path: str | os.PathLike, *, mesh: str | int | None = None) -> Char
             if not chosen:
                 raise FacepuppetError(f"{path}: no mesh has morph targets (key-models)")
         parts = [reader.mesh(m, mat) for m, mat in chosen]
-        return _join(parts, name=_character_name(gltf, chosen, path), path=path)
+        if mesh is None:
+            parts = _with_expressions(scene.doc, [m for m, _ in chosen], parts)
+        character = _join(parts, name=_character_name(gltf, chosen, path), path=path)
     except (IndexError, KeyError, TypeError, AttributeError) as e:   # an index to nothing, a missing field
         raise FacepuppetError(f"{path}: damaged glTF ({type(e).__name__}: {e}; an index points at nothing "
                               f"or a required field is missing)") from e
+    return dataclasses.replace(character, source=scene.glb())
+
+
+def _with_expressions(doc: dict, meshes: list[int], parts: list) -> list:
+    """Add the asset's VRM expressions (io/keymodels.py) to the parts as key-models: Σ factor · delta."""
+    targets = {n for m in range(len(doc.get("meshes") or [])) for n in morph_names(doc, m)}
+    expressions = {k: b for k, b in keymodel_binds(doc).items() if k not in targets}
+    if not expressions:
+        return parts
+    out = []
+    for m, (pos, d, names, faces) in zip(meshes, parts, strict=True):
+        extra = np.zeros((len(expressions),) + pos.shape)
+        for e, binds in enumerate(expressions.values()):
+            for mesh, j, factor in binds:
+                if mesh == m:
+                    extra[e] += factor * d[j]
+        out.append((pos, np.concatenate([d, extra]), list(names) + list(expressions), faces))
+    return out
 
 
 def write_glb(path: str | os.PathLike, character: Character, *, normals: bool = False) -> None:
@@ -139,6 +155,25 @@ def add_character(builder: GltfBuilder, character: Character, *, normals: bool =
     else:
         del primitive["targets"]
     return builder.add_node({"name": character.name, "mesh": builder.add_mesh(mesh)})
+
+
+def colored_glb(character: Character, colors: np.ndarray) -> bytes:
+    """GLB bytes of ``character`` with normals, vertex colours ``colors`` (V, 3) in [0, 1] (``COLOR_0``) under
+    one white, rough, non-metallic material, so a viewer shows the colours; morph targets as in
+    :func:`write_glb`."""
+    builder = GltfBuilder()
+    node = add_character(builder, character, normals=True)
+    prim = builder.json["meshes"][builder.json["nodes"][node]["mesh"]]["primitives"][0]
+    colors = np.asarray(colors, dtype=np.float32)
+    if colors.shape != (len(character.neutral), 3):
+        raise ValueError(f"colors must have shape ({len(character.neutral)}, 3), got {colors.shape}")
+    prim["attributes"]["COLOR_0"] = builder.add_accessor(np.clip(colors, 0, 1), target=ARRAY_BUFFER)
+    builder.json["materials"] = [{"name": f"{character.name} (vertex colours)", "pbrMetallicRoughness": {
+        "baseColorFactor": [1.0, 1.0, 1.0, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.7}}]
+    prim["material"] = 0
+    builder.json["scenes"] = [{"name": character.name, "nodes": [node]}]
+    builder.json["scene"] = 0
+    return builder.glb_bytes()
 
 
 # --------------------------------------------------------------------------------------------------- reading

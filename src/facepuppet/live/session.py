@@ -238,8 +238,12 @@ def run_live(source: str | os.PathLike, rig, *, config: LiveConfig | None = None
     LiveResult
         A session stopped before its first frame returns ``frames == 0`` and writes nothing.
     """
+    from facepuppet.pipeline.outputs import check_suffix
     from facepuppet.pipeline.tracking import TrackerOptions
 
+    for out, kind in ((record, "animated character"), (csv, "weights CSV")):
+        if out is not None:
+            check_suffix(out, kind)  # before the camera opens
     config = config or LiveConfig()
     tracker_options = config.tracker or TrackerOptions()
     rig_label = "rig"

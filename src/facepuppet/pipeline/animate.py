@@ -29,7 +29,7 @@ from facepuppet.capture.features import FrameFeatures
 from facepuppet.errors import FacepuppetError
 from facepuppet.io.track import Track
 from facepuppet.pipeline.gain import GainConfig
-from facepuppet.pipeline.outputs import CsvOutput, GlbOutput, PreviewOutput
+from facepuppet.pipeline.outputs import CsvOutput, GlbOutput, PreviewOutput, check_suffix
 from facepuppet.pipeline.provenance import check_rig_backend, check_rig_profile, check_track_media
 from facepuppet.pipeline.smoothing import SmoothingConfig
 from facepuppet.pipeline.stream import (
@@ -190,6 +190,9 @@ def animate(media: str | os.PathLike | None, rig, *, glb: str | os.PathLike | No
     -------
     Animation
     """
+    for out, kind in ((glb, "animated character"), (csv, "weights CSV"), (preview, "preview video")):
+        if out is not None:
+            check_suffix(out, kind)  # before any work
     config = config or AnimateConfig()
     rig, rig_label = _load_rig(rig)
     for out in (glb, csv, preview):

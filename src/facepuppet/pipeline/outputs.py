@@ -20,7 +20,20 @@ from facepuppet._util.atomic import atomic_path
 from facepuppet.errors import FacepuppetError
 from facepuppet.pipeline.stream import StreamFrame
 
-__all__ = ["RowSpool", "GlbOutput", "CsvOutput", "PreviewOutput"]
+__all__ = ["RowSpool", "GlbOutput", "CsvOutput", "PreviewOutput", "OUTPUT_SUFFIXES", "check_suffix"]
+
+#: File name suffixes each output writes (lower case): the GLB container (.vrm is one), .gltf JSON with an
+#: embedded buffer, CSV text, MPEG-4 video.
+OUTPUT_SUFFIXES: dict[str, tuple[str, ...]] = {"animated character": (".glb", ".gltf", ".vrm"),
+                                               "weights CSV": (".csv",), "preview video": (".mp4", ".m4v")}
+
+
+def check_suffix(path: str | os.PathLike, kind: str) -> None:
+    """Raise ValueError naming ``path`` when its suffix is not one the output ``kind`` writes."""
+    allowed = OUTPUT_SUFFIXES[kind]
+    if Path(path).suffix.lower() not in allowed:
+        raise ValueError(f"{path}: the {kind} is written as {', '.join(allowed)}, not "
+                         f"{Path(path).suffix or 'a name without suffix'}")
 
 
 class RowSpool:
@@ -88,7 +101,8 @@ def _folder(path) -> Path:
 
 
 class GlbOutput:
-    """The character with its key-models as morph targets and one animation of the stream's weights.
+    """The character with one animation of the stream's weights: its own scene whole when the rig keeps it
+    (``Character.source``), else the bare mesh with its key-models as morph targets.
 
     Parameters
     ----------
@@ -106,8 +120,9 @@ class GlbOutput:
 
     def __init__(self, path, rig, stack: contextlib.ExitStack, *, head_rotation: bool = True,
                  fps: float = 30.0) -> None:
+        check_suffix(path, "animated character")
         self.path, self.rig, self.head_rotation, self.fps = path, rig, head_rotation, float(fps)
-        self._tmp = _stage(stack, path, suffix=".glb")
+        self._tmp = _stage(stack, path, suffix=Path(path).suffix.lower())
         self._rows = _Rows(len(rig.names), _folder(path), stack)
 
     def write(self, frame: StreamFrame) -> None:
@@ -119,9 +134,18 @@ class GlbOutput:
         if self._rows.spool.rows == 0:
             raise FacepuppetError(f"{self.path}: no frames to write")
         times, _, weights, rotation = self._rows.read()
-        write_animated_glb(self._tmp, self.rig.character, self.rig.character_weights(weights), self.fps,
-                           times=times - times[0] if len(times) else times,
-                           head_rotation=rotation if self.head_rotation else None)
+        times = times - times[0] if len(times) else times
+        rotation = rotation if self.head_rotation else None
+        character = self.rig.character
+        if character.source is not None:  # the character's own scene, whole, with the animation added
+            from facepuppet.export.scene_animation import write_scene_animation
+
+            neutral = np.asarray(character.neutral)
+            write_scene_animation(self._tmp, character.source, self.rig.names, weights, self.fps, times=times,
+                                  head_rotation=rotation, pivot=(neutral.min(axis=0) + neutral.max(axis=0)) / 2)
+            return
+        write_animated_glb(self._tmp, character, self.rig.character_weights(weights), self.fps,
+                           times=times, head_rotation=rotation)
 
 
 class CsvOutput:
@@ -132,6 +156,7 @@ class CsvOutput:
 
     def __init__(self, path, rig, stack: contextlib.ExitStack, *, head_rotation: bool = True,
                  fps: float = 30.0) -> None:
+        check_suffix(path, "weights CSV")
         self.path, self.rig, self.head_rotation, self.fps = path, rig, head_rotation, float(fps)
         self._tmp = _stage(stack, path, suffix=".csv")
         self._rows = _Rows(len(rig.names), _folder(path), stack)
@@ -172,6 +197,7 @@ class PreviewOutput:
                  colors: np.ndarray | None = None, head_rotation: bool = True) -> None:
         from facepuppet.export.render import Camera
 
+        check_suffix(path, "preview video")
         self.path, self.fps, self.colors, self.head_rotation = path, float(fps), colors, head_rotation
         self._stack = stack
         character = rig.character

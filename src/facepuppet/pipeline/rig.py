@@ -11,19 +11,22 @@ The rig file is a NumPy ``.npz`` archive read without pickle:
 key                        shape       meaning
 =========================  ==========  ================================================================
 ``format``                 ()          the string ``"facepuppet-rig"``
-``version``                ()          integer format version, currently 1
+``version``                ()          integer format version, currently 2 (1 still reads)
 ``mapper.<key>``           any         the fitted mapper's arrays (``ExpressionMapper.to_arrays()``)
 ``character.neutral``      (V, 3)      the character's neutral mesh
 ``character.targets``      (K, V, 3)   all its key-models (absolute positions)
 ``character.names``        (K,)        their names
 ``character.faces``        (T, 3)      optional: triangles
 ``character.name``         ()          the character's name
+``character.source``       (B,) uint8  optional (version 2): the character's whole glTF scene as one GLB
 ``names``                  (M,)        the paired key-model names, in the mapper's example order
 ``point_names``            (P,)        the performer's feature point names (may be empty)
 =========================  ==========  ================================================================
 
 The character is kept whole, so an exported GLB has all its morph targets; the mapper's M weights go to the
-key-models named in ``names`` (:meth:`Rig.character_weights`) and the rest stay at zero.
+key-models named in ``names`` (:meth:`Rig.character_weights`) and the rest stay at zero. With
+``character.source`` (a character read from glTF / VRM), the GLB written is that scene with one animation added
+(:mod:`facepuppet.export.scene_animation`); without it (OBJ characters, version 1 rigs), the bare mesh.
 """
 
 from __future__ import annotations
@@ -45,7 +48,7 @@ from facepuppet.io.performer import Performer
 __all__ = ["Rig", "Pairing", "pair_by_name", "fit_rig", "save_rig", "load_rig", "RIG_FORMAT", "RIG_VERSION"]
 
 RIG_FORMAT = "facepuppet-rig"
-RIG_VERSION = 1
+RIG_VERSION = 2
 _MAPPER, _CHAR = "mapper.", "character."
 #: The fitted mapping's arrays that hold only finite numbers in a sound rig.
 _MAPPER_NUMBERS = ("source_base", "source_examples", "target_base", "target_deltas", "point_scale", "whiten")
@@ -195,6 +198,8 @@ def save_rig(path: str | os.PathLike, rig: Rig) -> None:
             arrays[key] = np.asarray(str(getattr(rig, key)))
     if c.faces is not None:
         arrays[_CHAR + "faces"] = np.asarray(c.faces, dtype=np.int64)
+    if c.source is not None:
+        arrays[_CHAR + "source"] = np.frombuffer(c.source, dtype=np.uint8)
     for key, value in rig.mapper.to_arrays().items():
         value = np.asarray(value)
         if value.dtype == object:
@@ -202,6 +207,14 @@ def save_rig(path: str | os.PathLike, rig: Rig) -> None:
         arrays[_MAPPER + key] = value
     with atomic_path(path, suffix=".npz") as tmp:
         np.savez_compressed(tmp, **arrays)
+
+
+def _source(array: np.ndarray | None) -> bytes | None:
+    if array is None:
+        return None
+    if array.dtype != np.uint8 or array.ndim != 1:
+        raise ValueError(f"character.source must be (B,) uint8, got {array.dtype} {array.shape}")
+    return array.tobytes()
 
 
 def load_rig(path: str | os.PathLike) -> Rig:
@@ -222,6 +235,7 @@ def load_rig(path: str | os.PathLike) -> Rig:
             names=tuple(str(n) for n in np.atleast_1d(arrays[_CHAR + "names"])),
             faces=arrays.get(_CHAR + "faces"),
             name=str(arrays[_CHAR + "name"]),
+            source=_source(arrays.get(_CHAR + "source")),
         )
         mapper_arrays = {k[len(_MAPPER):]: v for k, v in arrays.items() if k.startswith(_MAPPER)}
         damaged = sorted(k for k, v in mapper_arrays.items() if k in _MAPPER_NUMBERS and v.dtype.kind in "fc"

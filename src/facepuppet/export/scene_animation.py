@@ -1,0 +1,281 @@
+"""The character's own scene, whole, with one more animation: the performance.
+
+:func:`write_scene_animation` takes the scene a character was read from (:attr:`Character.source`, one
+self-contained GLB; :mod:`facepuppet.io.scene`) and writes it back with everything it had (nodes, meshes, every
+primitive attribute, materials, textures, images, samplers, skins, cameras, extensions, animations) and one
+added animation; the JSON changes only by that animation, the buffer views and accessors of its keys (appended
+after the existing ones) and the length of buffer 0 (the keys appended to its end). When the head turns in a
+scene without a head joint, one node is added too (below).
+
+The animation has one key per frame (LINEAR):
+
+- a ``weights`` channel on every node whose mesh has a morph target bound to a driven key-model
+  (:func:`facepuppet.io.keymodels.keymodel_binds`): target j of mesh m gets Σ_k w_k · factor over the driven
+  key-models k that bind it, every other target its file's default weight (``mesh.weights``, else 0);
+- the head rotation R_f (scene space, about the head's pivot), on the **head joint** when there is one: the
+  VRM humanoid's ``head`` bone, else a joint of a skin whose name, lower-cased, with any ``prefix:`` or
+  ``prefix|`` dropped and only letters and digits kept, is one of :data:`HEAD_JOINT_NAMES` (``Head``,
+  ``mixamorig:Head``, ``J_Bip_C_Head``, ``DEF-head`` ...). Its local rotation becomes P⁻¹ R_f P L, with P the
+  parent's world rotation and L the joint's rest rotation, so the head turns by R_f about the joint;
+- without a head joint, on a new node ``facepuppet_head`` put in place of the faces' nodes (below their
+  lowest common ancestor, which keeps its other children): rest transform identity, animated rotation and
+  translation T(c) R_f T(-c) about the pivot c, in its parent's frame. Skinned meshes ignore node transforms,
+  so a skinned face without a head joint keeps its rest pose (a warning is logged).
+"""
+
+from __future__ import annotations
+
+import base64
+import copy
+import json
+import logging
+import os
+import re
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from facepuppet._util.atomic import atomic_path
+from facepuppet.export.gltf_animation import rotation_quaternions
+from facepuppet.io.gltf import quaternion_matrix
+from facepuppet.io.keymodels import keymodel_binds, morph_names
+from facepuppet.io.scene import glb_bytes, scene_from_glb
+
+__all__ = ["write_scene_animation", "find_head_joint", "HEAD_JOINT_NAMES"]
+
+log = logging.getLogger(__name__)
+
+#: Normalised names of head joints (see the module notes): Mixamo, Unity/Unreal humanoids, VRoid, Rigify,
+#: Character Creator, 3ds Max Biped, and common hand-made rigs.
+HEAD_JOINT_NAMES = frozenset({"head", "jbipchead", "defhead", "ccbasehead", "bip01head", "bip001head",
+                              "headjnt", "headjoint", "headbone", "headj"})
+
+
+def write_scene_animation(path: str | os.PathLike, source: bytes, names: Sequence[str], weights: np.ndarray,
+                          fps: float, *, times: np.ndarray | None = None, head_rotation: np.ndarray | None = None,
+                          pivot: np.ndarray | None = None, name: str = "performance") -> None:
+    """Write the scene ``source`` with one animation of key-model weights (and head rotation), atomically.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        Output .glb / .vrm (GLB container) or .gltf (JSON with the buffer as a data URI).
+    source : bytes
+        The scene as one self-contained GLB (:attr:`Character.source`).
+    names : sequence of K str
+        The key-models the weights drive (names :func:`keymodel_binds` knows).
+    weights : (F, K) float
+        Weights per frame; a frame with a non-finite weight is neutral (zeros).
+    fps : float
+        Frame rate; frame f is keyed at f / fps seconds unless ``times`` is given.
+    times : (F,) float, optional
+        Increasing key times in seconds.
+    head_rotation : (F, 3, 3) float, optional
+        Head rotation per frame in scene space.
+    pivot : (3,) float, optional
+        Where the head turns when there is no head joint (scene space); the origin if None.
+    name : str
+        The animation's name.
+    """
+    weights = np.asarray(weights, dtype=np.float64)
+    names = list(names)
+    if weights.ndim != 2 or weights.shape[1] != len(names) or len(weights) == 0:
+        raise ValueError(f"weights must have shape (F, {len(names)}) with F >= 1, got {weights.shape}")
+    if not (np.isfinite(fps) and fps > 0):
+        raise ValueError(f"fps must be a positive number, got {fps}")
+    f = len(weights)
+    times = np.arange(f) / fps if times is None else np.asarray(times, dtype=np.float64)
+    if times.shape != (f,) or not np.isfinite(times).all() or (f > 1 and not (np.diff(times) > 0).all()):
+        raise ValueError(f"times must be {f} finite, increasing seconds, got shape {times.shape}")
+    weights = np.where(np.all(np.isfinite(weights), axis=1, keepdims=True), weights, 0.0)
+    scene = scene_from_glb(source, "character scene")
+    doc, blob = copy.deepcopy(scene.doc), bytearray(scene.blob)
+    add = _Appender(doc, blob)
+
+    binds = keymodel_binds(doc)
+    unknown = [n for n in names if n not in binds]
+    if unknown:
+        raise ValueError(f"key-models not in the character's scene: {', '.join(unknown)}")
+    per_mesh = _mesh_weights(doc, binds, names, weights)
+    t_acc = add.accessor(times.astype(np.float32), min_max=True)
+    samplers, channels = [], []
+    for node_index, node in enumerate(doc.get("nodes") or []):
+        if node.get("mesh") in per_mesh:
+            samplers.append({"input": t_acc, "interpolation": "LINEAR",
+                             "output": add.accessor(per_mesh[node["mesh"]].astype(np.float32).reshape(-1))})
+            channels.append({"sampler": len(samplers) - 1, "target": {"node": node_index, "path": "weights"}})
+    if not channels:
+        raise ValueError("no node of the scene shows a mesh the key-models move")
+    if head_rotation is not None:
+        rotation = np.asarray(head_rotation, dtype=np.float64)
+        if rotation.shape != (f, 3, 3):
+            raise ValueError(f"head_rotation must have shape ({f}, 3, 3), got {rotation.shape}")
+        faces = sorted({c["target"]["node"] for c in channels})
+        c = np.zeros(3) if pivot is None else np.asarray(pivot, dtype=np.float64).reshape(3)
+        for node, path_name, values in _head_channels(doc, faces, rotation, c):
+            samplers.append({"input": t_acc, "interpolation": "LINEAR",
+                             "output": add.accessor(values.astype(np.float32))})
+            channels.append({"sampler": len(samplers) - 1, "target": {"node": node, "path": path_name}})
+    doc.setdefault("animations", []).append({"name": name, "samplers": samplers, "channels": channels})
+    add.finish()
+    path = Path(path)
+    with atomic_path(path) as tmp:
+        if path.suffix.lower() == ".gltf":
+            doc["buffers"][0]["uri"] = ("data:application/octet-stream;base64,"
+                                        + base64.b64encode(bytes(blob)).decode("ascii"))
+            tmp.write_text(json.dumps(doc, indent=1, ensure_ascii=False), encoding="utf-8")
+        else:
+            tmp.write_bytes(glb_bytes(doc, bytes(blob)))
+
+
+class _Appender:
+    """Appends accessors (own 4-byte aligned buffer views) to buffer 0 of ``doc`` / ``blob``."""
+
+    def __init__(self, doc: dict, blob: bytearray) -> None:
+        self.doc, self.blob = doc, blob
+
+    def accessor(self, array: np.ndarray, *, min_max: bool = False) -> int:
+        array = np.ascontiguousarray(array, dtype=np.float32)
+        k = 1 if array.ndim == 1 else array.shape[1]
+        self.blob.extend(b"\0" * (-len(self.blob) % 4))
+        self.doc.setdefault("bufferViews", []).append({"buffer": 0, "byteOffset": len(self.blob),
+                                                       "byteLength": array.nbytes})
+        self.blob.extend(array.tobytes())
+        acc = {"bufferView": len(self.doc["bufferViews"]) - 1, "componentType": 5126, "count": len(array),
+               "type": {1: "SCALAR", 3: "VEC3", 4: "VEC4"}[k]}
+        if min_max:
+            flat = array.reshape(len(array), k)
+            acc["min"], acc["max"] = [float(x) for x in flat.min(0)], [float(x) for x in flat.max(0)]
+        self.doc.setdefault("accessors", []).append(acc)
+        return len(self.doc["accessors"]) - 1
+
+    def finish(self) -> None:
+        self.blob.extend(b"\0" * (-len(self.blob) % 4))
+        buffers = self.doc.setdefault("buffers", [{"byteLength": 0}])
+        buffers[0]["byteLength"] = len(self.blob)
+
+
+def _mesh_weights(doc: dict, binds: dict, names: list[str], weights: np.ndarray) -> dict[int, np.ndarray]:
+    """mesh index -> (F, n targets) weights, for meshes with a target bound to a driven key-model."""
+    out: dict[int, np.ndarray] = {}
+    driven: dict[int, set[int]] = {}
+    for name in names:
+        for m, j, _ in binds[name]:
+            driven.setdefault(m, set()).add(j)
+    for m, targets in driven.items():
+        n = len(morph_names(doc, m))
+        default = np.zeros(n)
+        stored = doc["meshes"][m].get("weights")
+        if isinstance(stored, list) and len(stored) == n:
+            default = np.asarray(stored, dtype=np.float64)
+        w = np.repeat(default[None], len(weights), axis=0)
+        w[:, sorted(targets)] = 0.0
+        out[m] = w
+    for k, name in enumerate(names):
+        for m, j, factor in binds[name]:
+            out[m][:, j] += factor * weights[:, k]
+    return out
+
+
+def _normalised(name: str) -> str:
+    return re.sub(r"[^a-z0-9]", "", re.split(r"[:|]", name.lower())[-1])
+
+
+def find_head_joint(doc: dict) -> int | None:
+    """Index of the head joint node (see the module notes), or None."""
+    ext = doc.get("extensions") or {}
+    head = ((ext.get("VRMC_vrm") or {}).get("humanoid") or {}).get("humanBones", {}).get("head", {}).get("node")
+    if isinstance(head, int):
+        return head
+    for bone in ((ext.get("VRM") or {}).get("humanoid") or {}).get("humanBones") or []:
+        if bone.get("bone") == "head" and isinstance(bone.get("node"), int):
+            return bone["node"]
+    nodes = doc.get("nodes") or []
+    for skin in doc.get("skins") or []:
+        for j in skin.get("joints") or []:
+            if 0 <= j < len(nodes) and _normalised(str(nodes[j].get("name", ""))) in HEAD_JOINT_NAMES:
+                return j
+    return None
+
+
+def _local(node: dict) -> np.ndarray:
+    if node.get("matrix") is not None:
+        return np.asarray(node["matrix"], dtype=np.float64).reshape(4, 4).T
+    m = np.eye(4)
+    m[:3, :3] = quaternion_matrix(node.get("rotation", [0, 0, 0, 1])) * np.asarray(node.get("scale", [1, 1, 1]))
+    m[:3, 3] = node.get("translation", [0, 0, 0])
+    return m
+
+
+def _parents(doc: dict) -> dict[int, int]:
+    return {c: i for i, n in enumerate(doc.get("nodes") or []) for c in n.get("children") or []}
+
+
+def _world(doc: dict, index: int | None, parents: dict[int, int]) -> np.ndarray:
+    m = np.eye(4)
+    while index is not None:
+        m = _local(doc["nodes"][index]) @ m
+        index = parents.get(index)
+    return m
+
+
+def _rotation_part(m: np.ndarray) -> np.ndarray:
+    u, _, vt = np.linalg.svd(m[:3, :3])
+    return u @ vt
+
+
+def _head_channels(doc: dict, faces: list[int], rotation: np.ndarray, pivot: np.ndarray):
+    """(node, path, values) channels that turn the head (see the module notes)."""
+    nodes, parents = doc["nodes"], _parents(doc)
+    joint = find_head_joint(doc)
+    if joint is not None:
+        p = _rotation_part(_world(doc, parents.get(joint), parents))
+        rest = _rotation_part(_local(nodes[joint]))
+        if "matrix" in nodes[joint]:
+            log.warning("head joint %r has a matrix, which glTF cannot animate; head rotation not written",
+                        nodes[joint].get("name"))
+            return []
+        local = np.einsum("ij,fjk,kl,lm->fim", p.T, rotation, p, rest)
+        return [(joint, "rotation", rotation_quaternions(local))]
+    rigid = [i for i in faces if nodes[i].get("skin") is None]
+    if not rigid:
+        log.warning("the face is skinned and the skeleton has no head joint; head rotation not written")
+        return []
+    chains = []
+    for i in rigid:
+        chain = [i]
+        while chain[-1] in parents:
+            chain.append(parents[chain[-1]])
+        chains.append(chain[::-1])
+    depth = 0
+    while all(len(c) > depth + 1 for c in chains) and len({c[depth] for c in chains}) == 1:
+        depth += 1
+    parent = chains[0][depth - 1] if depth else None  # the lowest common ancestor (None: the scene)
+    children = list(dict.fromkeys(c[depth] for c in chains))
+    siblings = nodes[parent].get("children", []) if parent is not None else \
+        [r for sc in doc.get("scenes") or [] for r in sc.get("nodes") or []]
+    children.sort(key=lambda c: siblings.index(c) if c in siblings else len(siblings))
+    head = len(nodes)
+    nodes.append({"name": "facepuppet_head", "children": children})
+    if parent is None:
+        for scene in doc.get("scenes") or []:
+            roots = scene.get("nodes") or []
+            if any(c in roots for c in children):
+                at = min(roots.index(c) for c in children if c in roots)
+                scene["nodes"] = [r for r in roots[:at] if r not in children] + [head] + \
+                                 [r for r in roots[at:] if r not in children]
+    else:
+        kids = nodes[parent]["children"]
+        at = min(kids.index(c) for c in children)
+        nodes[parent]["children"] = [k for k in kids[:at] if k not in children] + [head] + \
+                                    [k for k in kids[at:] if k not in children]
+    world = _world(doc, parent, parents)
+    inv = np.linalg.inv(world)
+    local = np.zeros((len(rotation), 4, 4))
+    local[:, :3, :3] = rotation
+    local[:, :3, 3] = pivot - rotation @ pivot
+    local[:, 3, 3] = 1.0
+    local = inv[None] @ local @ world[None]
+    return [(head, "rotation", rotation_quaternions(np.stack([_rotation_part(m) for m in local]))),
+            (head, "translation", local[:, :3, 3])]
