@@ -4,7 +4,8 @@ With region masks M_k (R, V), background k = 0 first (:mod:`facepuppet.mapping._
 w_k come from a :class:`~facepuppet.mapping._methods.BoundedSolver` fitted on the examples' displacements with
 region k's point weights ω_k applied per coordinate (points of region k weigh 1, the others ``leak``; the
 background weighs all points 1, so its weights are the global mapping's). Key-models that do not move region
-k get weight 0 there (``support_tol``). The character is then
+k get weight 0 there (``support_tol``), and so do the examples that do not move region k's weighted points
+(under ``STILL_SHARE`` of the largest): they are left out of region k's solver. The character is then
 
     T = T_B + sum_k sum_i M_k (.) w_ik (T_i - T_B)
 
@@ -24,6 +25,7 @@ import numpy as np
 
 from facepuppet.errors import FacepuppetError
 from facepuppet.mapping._boxqp import solve_box_qp
+from facepuppet.mapping._params import STILL_SHARE
 from facepuppet.mapping._regions import motion_regions, point_weights, region_support
 
 __all__ = ["RegionalSolver"]
@@ -72,30 +74,41 @@ class RegionalSolver:
         dim = source_deltas.shape[2]
         omega = np.repeat(omega_p, dim, axis=1)                              # (R, N) per coordinate
         sub = {**opts, "ridge": 0.0, "correct": False}
-        parts = []
-        for k in range(len(masks)):
+        M, N = V.shape
+        R = len(masks)
+        Fs, G, H, Hd = np.zeros((R, M, N)), np.zeros((R, N, 2 * M)), np.zeros((R, M, M)), np.zeros((R, M, M))
+        keep_all = np.zeros((R, M), dtype=bool)
+        for k in range(R):
             Vk = V * omega[k]
             if whiten is not None:
                 Vk = Vk @ whiten
+            norms = np.linalg.norm(Vk, axis=1)
+            keep = norms >= STILL_SHARE * norms.max() if k else np.ones(M, dtype=bool)
             try:
-                s = part.fit(Vk, sub, names)
+                s = part.fit(Vk[keep], sub, None if names is None else tuple(np.array(names)[keep]))
             except FacepuppetError:
                 if k == 0:
                     raise
-                omega[k] = 1.0                       # this region's points alone cannot tell the examples apart
+                # this region's points alone cannot tell its examples apart: it takes the global weights
+                omega[k], keep = 1.0, np.ones(M, dtype=bool)
                 s = part.fit(V if whiten is None else V @ whiten, sub, names)
-            parts.append(s)
-        Fs = np.stack([s.F for s in parts])
-        G = np.stack([s.G for s in parts])
+            j = np.flatnonzero(keep)
+            n = len(j)
+            Fs[k, :n] = s.F
+            G[k][:, j], G[k][:, M + j[: s.F.shape[0]]] = s.G[:, :n], s.G[:, n:]
+            H[k] = np.eye(M)                          # examples the region's points do not see: w = 0 there
+            H[k][np.ix_(j, j)], Hd[k][np.ix_(j, j)] = s.H, s.Hd
+            keep_all[k] = keep
+            if k == 0:
+                P0 = s.P
         if whiten is not None:
             G = np.einsum("nm,rmj->rnj", whiten, G)
         G = omega[:, :, None] * G
-        solver = cls(Fs=Fs, G=G, H=np.stack([s.H for s in parts]), Hd=np.stack([s.Hd for s in parts]),
-                     omega=omega, whiten=whiten, bounds=opts["bounds"], angle_ridge=opts["angle_ridge"],
-                     noise_ridge=opts.get("noise_ridge", 0.0),
-                     support=region_support(target_deltas, masks, float(opts["support_tol"])), masks=masks,
-                     region_names=region_names, owner=owner)
-        solver._P0 = parts[0].P
+        support = region_support(target_deltas, masks, float(opts["support_tol"])) & keep_all
+        solver = cls(Fs=Fs, G=G, H=H, Hd=Hd, omega=omega, whiten=whiten, bounds=opts["bounds"],
+                     angle_ridge=opts["angle_ridge"], noise_ridge=opts.get("noise_ridge", 0.0), support=support,
+                     masks=masks, region_names=region_names, owner=owner)
+        solver._P0 = P0
         return solver
 
     def __call__(self, D: np.ndarray) -> np.ndarray:

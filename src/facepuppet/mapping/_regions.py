@@ -5,7 +5,9 @@ greedily, with m_i(v) = ||T_i(v) - T_B(v)|| and the uncovered motion c = m (init
 key-model i0 and vertex v0 of largest c; its core C is the set of vertices with m_i0 >= ``core`` * m_i0(v0);
 its influence is F(v) = f(dist(v, C) / rho), f the wires' falloff (1 - x^2)^2 on [0, 1), dist the distance to
 the nearest core vertex on T_B and rho = ``reach`` times the core's radius (largest distance of a core vertex
-from the core's centroid). Then c is multiplied by 1 - F and key-model i0 is done. The masks are those of
+from the core's centroid). Then c is multiplied by 1 - F and key-model i0 is done. A region is named
+after the key-model that placed it (:func:`region_name`: ``jaw``, ``mouth_L``, ``eye_R``, ``brow``;
+``region<k>`` without key-model names). The masks are those of
 ``synthesis.region_masks``:
 
     M_k = F_k / max(1, sum_j F_j),    M_0 = 1 - sum_k M_k     (M_0 the background)
@@ -18,16 +20,29 @@ profile has the largest cosine similarity with its own. In region k the point we
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 from scipy.spatial import cKDTree
 
-__all__ = ["motion_regions", "masks_from_influence", "point_weights", "region_support"]
+__all__ = ["motion_regions", "region_name", "masks_from_influence", "point_weights", "region_support"]
 
 
 def _falloff(x: np.ndarray) -> np.ndarray:
     """f(x) = (1 - x^2)^2 on [0, 1), 0 beyond (the wires' default falloff)."""
     x = np.clip(np.abs(x), 0.0, 1.0)
     return (1.0 - x * x) ** 2
+
+
+def region_name(key_name: str) -> str:
+    """A region's name from the key-model that placed it: its leading lowercase word and its side.
+
+    ``jawOpen`` -> ``jaw``, ``mouthSmile_L`` -> ``mouth_L``, ``eyeBlink_R`` -> ``eye_R``, ``browInnerUp`` ->
+    ``brow``; a name without a lowercase start is kept whole.
+    """
+    side = key_name[-2:] if key_name.endswith(("_L", "_R")) else ""
+    word = re.match(r"[a-z]+", key_name)
+    return (word.group(0) if word else key_name[: len(key_name) - len(side)]) + side
 
 
 def masks_from_influence(influence: np.ndarray) -> np.ndarray:
@@ -80,7 +95,7 @@ def motion_regions(base: np.ndarray, deltas: np.ndarray, names: tuple[str, ...] 
         influence.append(f)
         uncovered *= 1.0 - f[None]
         uncovered[i0] = 0.0
-        name = base_name = str(names[i0]) if names else f"region{k + 1}"
+        name = base_name = region_name(str(names[i0])) if names else f"region{k + 1}"
         n = 2
         while name in out_names:
             name, n = f"{base_name}_{n}", n + 1
