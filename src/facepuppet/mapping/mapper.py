@@ -8,6 +8,7 @@ import numpy as np
 
 from facepuppet._util.atomic import atomic_path
 from facepuppet.errors import FacepuppetError
+from facepuppet.mapping._blend import blend_regions, sparse_masks
 from facepuppet.mapping._methods import METHODS, SOLVERS
 from facepuppet.mapping._metric import nuisance_transform
 from facepuppet.mapping._options import MapperOptions, check_array, resolve_options
@@ -101,6 +102,7 @@ class ExpressionMapper:
         self.whiten = whiten
         self._t_flat = target_base.reshape(-1)
         self._d_flat = np.ascontiguousarray(target_deltas.reshape(self.n_examples, -1))
+        self._sparse_masks = self._deltas_c = None
 
     # ----------------------------------------------------------------------------------------- fitting
     @classmethod
@@ -243,9 +245,11 @@ class ExpressionMapper:
         if self.regional and w.ndim >= 2 and w.shape[-2:] == (len(self.region_names), self.n_examples):
             if not np.isfinite(w).all():
                 raise ValueError("weights hold NaN or inf")
-            per_vertex = np.einsum("rv,...ri->...vi", self.region_masks, w)       # Σ_k M_k(v) w_ik
-            out = np.einsum("...vi,ivc->...vc", per_vertex, self.target_deltas, optimize=True)
-            return out + self.target_base
+            if self._sparse_masks is None:
+                self._sparse_masks = sparse_masks(self.region_masks)
+                self._deltas_c = np.ascontiguousarray(self.target_deltas, dtype=np.float64)
+            out = blend_regions(self.target_base, self._deltas_c, self._sparse_masks, w.reshape(-1, *w.shape[-2:]))
+            return out.reshape(w.shape[:-2] + out.shape[1:])
         if w.ndim not in (1, 2) or w.shape[-1] != self.n_examples:
             raise ValueError(f"weights must have shape ({self.n_examples},) or (F, {self.n_examples}), "
                              f"got {w.shape}")
