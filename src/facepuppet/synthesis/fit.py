@@ -15,7 +15,7 @@ vertices; 0 for a key-model that moves nothing and is reproduced exactly).
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -119,6 +119,60 @@ class CharacterWires:
         refs = self.references
         d = WireDeformer(self.neutral, [refs[k] for k in act], self.radii[i, act], exponent=self.exponent)
         return d.deform([self.curves[k][i] for k in act], self.scales[i, act])
+
+
+    def with_curve(self, i: int, k: int, curve) -> CharacterWires:
+        """A copy whose key-model ``i`` has wire ``k``'s curve replaced by ``curve`` (K_k, 3) (an edit).
+
+        The wire becomes active for key-model ``i`` (with its fitted or the largest radius). Only the
+        vertices that wire reaches (closer than its radius to R_k) can change in :meth:`reproduce`.
+        """
+        c = np.asarray(curve, dtype=float)
+        if c.shape != self.curves[k].shape[1:] or not np.isfinite(c).all():
+            raise ValueError(f"curve must be a finite {self.curves[k].shape[1:]} array, got shape {c.shape}")
+        curves = list(self.curves)
+        curves[k] = curves[k].copy()
+        curves[k][i] = c
+        active = self.active.copy()
+        active[i, k] = True
+        return replace(self, curves=tuple(curves), active=active)
+
+    def synthesize(self, weights) -> np.ndarray:
+        """The paper's wire-based synthesis: blend the key-models' wires, then deform T_B with them.
+
+        For weights w (M,): W_k(w) = R_k + sum_i w_i a_ik (W_ik - R_k), s_k(w) = 1 + sum_i w_i a_ik (s_ik - 1)
+        and r_k(w) = sum_i w_i a_ik r_ik / sum_i w_i a_ik (the bound radius when no active key-model has
+        weight), a_ik = ``active``; the mesh is T_B deformed by all wires (:class:`WireDeformer`, bound once at
+        the largest radii). With w = e_i it is :meth:`reproduce` (i); with w = 0 it is T_B.
+
+        Parameters
+        ----------
+        weights : (M,) or (F, M) float
+
+        Returns
+        -------
+        (V, 3) or (F, V, 3) float
+        """
+        w = np.asarray(weights, dtype=float)
+        m = len(self.key_names)
+        if w.shape[-1:] != (m,) or w.ndim not in (1, 2) or not np.isfinite(w).all():
+            raise ValueError(f"weights must be finite with shape ({m},) or (F, {m}), got {w.shape}")
+        frames = np.atleast_2d(w)
+        refs = self.references
+        bound = np.where(self.active, self.radii, 0.0).max(axis=0)
+        bound = np.where(bound > 0, bound, self.radii.max(axis=0))
+        deformer = WireDeformer(self.neutral, refs, bound, exponent=self.exponent, names=self.names)
+        a = self.active.astype(float)
+        out = np.empty((len(frames), len(self.neutral), 3))
+        for f, wf in enumerate(frames):
+            wa = wf[:, None] * a                                                   # (M, n_wires)
+            curves = [r + np.tensordot(wa[:, k], c - r[None], 1) for k, (r, c) in enumerate(zip(refs, self.curves,
+                                                                                              strict=True))]
+            scales = 1.0 + (wa * (self.scales - 1.0)).sum(axis=0)
+            tot = wa.sum(axis=0)
+            radii = np.where(tot != 0, (wa * self.radii).sum(axis=0) / np.where(tot != 0, tot, 1.0), bound)
+            out[f] = deformer.deform(curves, scales, radii=np.clip(radii, 1e-12, bound))
+        return out[0] if w.ndim == 1 else out
 
 
 def reproduction_errors(character: Character, wires: CharacterWires) -> np.ndarray:
