@@ -217,15 +217,20 @@ class Scene:
             e = self.E[:, idx]
             return (e * s[:, None]).reshape(n, -1) @ e.reshape(n, -1).T
 
-        for k in range(R):
-            ik = support[k]
-            err2 += 2.0 * np.einsum("fi,ij,fj->f", U0, gram(ik, masks[k + 1, ik]), Dk[:, k])
-            for ll in range(k, R):
-                idx = np.intersect1d(ik, support[ll], assume_unique=True)
-                if not len(idx):
-                    continue
-                term = np.einsum("fi,ij,fj->f", Dk[:, k], gram(idx, masks[k + 1, idx] * masks[ll + 1, idx]),
-                                 Dk[:, ll])
+        if getattr(self, "_gram_masks", None) is not masks:       # the same masks at every noise level
+            self._gram_masks, self._grams = masks, {}
+            for k in range(R):
+                ik = support[k]
+                self._grams[k, -1] = gram(ik, masks[k + 1, ik])
+                for ll in range(k, R):
+                    idx = np.intersect1d(ik, support[ll], assume_unique=True)
+                    if len(idx):
+                        self._grams[k, ll] = gram(idx, masks[k + 1, idx] * masks[ll + 1, idx])
+        for (k, ll), G in self._grams.items():
+            if ll < 0:
+                err2 += 2.0 * np.einsum("fi,ij,fj->f", U0, G, Dk[:, k])
+            else:
+                term = np.einsum("fi,ij,fj->f", Dk[:, k], G, Dk[:, ll])
                 err2 += term if k == ll else 2.0 * term
         num = np.sqrt(np.maximum(err2, 0.0))
         return float(np.mean(num[self.ok] / self.den[self.ok]))
