@@ -63,3 +63,21 @@ def test_mapper_synthesizes_with_wires(fitted):
     m = ExpressionMapper.fit(pts, S, ch.neutral, ch.targets)
     w = m.weights(S[0])
     np.testing.assert_allclose(m.synthesize(w, wires=wires), wires.synthesize(w))
+
+
+def test_regions_from_the_wires_influence(fitted):
+    ch, wires = fitted
+    masks, names = wires.regions()
+    assert names == ("background", "A", "B")
+    np.testing.assert_allclose(masks.sum(0), 1.0, atol=1e-12)
+    row_a, row_b = row_path(ROW_A), row_path(ROW_B)
+    np.testing.assert_allclose(masks[1, row_a], 1.0)          # on its reference curve a wire's mask is 1
+    np.testing.assert_allclose(masks[2, row_b], 1.0)
+    far = bind_points(ch.neutral, ch.neutral[row_a]).distance >= wires.radii[:, 0].max()
+    assert (masks[1, far] == 0).all()
+    pts = np.r_[row_a[::6], row_b[::6]]
+    m = ExpressionMapper.fit(ch.neutral[pts], ch.targets[:2, pts], ch.neutral, ch.targets[:2], method="regional",
+                             regions=masks, region_names=names)
+    assert m.region_names == names
+    for i in range(2):
+        np.testing.assert_allclose(m.synthesize(m.weights(ch.targets[i, pts])), ch.targets[i], atol=1e-9)

@@ -14,6 +14,7 @@ vertices; 0 for a key-model that moves nothing and is reproduced exactly).
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
@@ -23,6 +24,7 @@ from scipy.optimize import least_squares
 from facepuppet.io.character import Character
 from facepuppet.synthesis.deformer import DEFAULT_EXPONENT, WireDeformer
 from facepuppet.synthesis.paths import FindOptions, check_paths, find_wire_paths
+from facepuppet.synthesis.regions import region_masks
 
 __all__ = ["CharacterWires", "FitOptions", "fit_wires", "reproduction_errors"]
 
@@ -120,6 +122,33 @@ class CharacterWires:
         d = WireDeformer(self.neutral, [refs[k] for k in act], self.radii[i, act], exponent=self.exponent)
         return d.deform([self.curves[k][i] for k in act], self.scales[i, act])
 
+
+    def regions(self) -> tuple[np.ndarray, tuple[str, ...]]:
+        """Region masks from the wires' influence, for the regional mapping (``fit(..., regions=...)``).
+
+        Each wire's influence F_k at its largest fitted radius over the key-models it takes part in
+        (:meth:`WireDeformer.influence`), made a partition of unity by :func:`region_masks` (background first).
+        Names: ``background``, then each wire's name by its leading lowercase word and side (``jawOpen`` ->
+        ``jaw``, ``eyeBlink_L`` -> ``eye_L``; repeated ones numbered ``_2``, ``_3``).
+
+        Returns
+        -------
+        masks : (n_wires + 1, V) float
+        names : tuple of n_wires + 1 str
+        """
+        radii = np.where(self.active, self.radii, 0.0).max(axis=0)
+        radii = np.where(radii > 0, radii, self.radii.max(axis=0))
+        influence = WireDeformer(self.neutral, self.references, radii, exponent=self.exponent).influence()
+        names = ["background"]
+        for n in self.names:
+            side = n[-2:] if n.endswith(("_L", "_R")) else ""
+            word = re.match(r"[a-z]+", n)
+            name = base = (word.group(0) if word else n[: len(n) - len(side)]) + side
+            j = 2
+            while name in names:
+                name, j = f"{base}_{j}", j + 1
+            names.append(name)
+        return region_masks(influence), tuple(names)
 
     def with_curve(self, i: int, k: int, curve) -> CharacterWires:
         """A copy whose key-model ``i`` has wire ``k``'s curve replaced by ``curve`` (K_k, 3) (an edit).
