@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from facepuppet.mapping._spd import solve_spd
+
 __all__ = ["solve_box_qp"]
 
 _PDAS_STEPS = 12
@@ -44,7 +46,7 @@ def solve_box_qp(H: np.ndarray, B: np.ndarray, lo: np.ndarray, hi: np.ndarray,
     """
     batched = H.ndim == 3
     if batched:
-        w = np.linalg.solve(H, B[:, :, None])[:, :, 0]  # unconstrained minimiser
+        w = solve_spd(H, B)  # unconstrained minimiser
     else:
         w = B @ (np.linalg.inv(H) if H_inv is None else H_inv)  # (H symmetric)
     below, above = w < lo, w > hi
@@ -70,7 +72,7 @@ def solve_box_qp(H: np.ndarray, B: np.ndarray, lo: np.ndarray, hi: np.ndarray,
         free = ~fixed
         K = np.where(free[:, :, None] & free[:, None, :], Ht, eye)
         rhs = np.where(free, Bt - _times(w_fix, Ht), w_fix)
-        wt = np.linalg.solve(K, rhs[:, :, None])[:, :, 0]
+        wt = solve_spd(K, rhs)
         wt = np.where(fixed, w_fix, wt)
         lam = _times(wt, Ht) - Bt  # gradient; zero on the free set
         lam = np.where(free, 0.0, lam)
