@@ -1,7 +1,8 @@
 """Speed of the mapping stage, each figure next to a plain-numpy reference measured in the same run.
 
-Budgets: weights() of one frame <= 100 us; synthesize() of an 11,248-vertex character <= 1 ms per
-frame; fit of 13 examples <= 50 ms. Uses the ICT-FaceKit model from ../shared/assets when present (or
+Budgets: weights() of one frame <= 100 us (also the regional mapping's); synthesize() of an 11,248-vertex
+character <= 1 ms per frame; fit of 13 examples <= 50 ms (the regional mapping, which finds its regions on
+the mesh: <= 1 s). Uses the ICT-FaceKit model from ../shared/assets when present (or
 $FACEPUPPET_ASSETS), else a synthetic performer and character of the same sizes.
 
     python benchmarks/bench_mapping.py [--frames 600] [--repeat 200]
@@ -85,7 +86,7 @@ def main(argv: list[str] | None = None) -> int:
 
     d_one = (x[0] - sb).reshape(-1)
     t_ref_one = per_call(lambda: np.linalg.lstsq(V.T, d_one, rcond=None), args.repeat)
-    for method in ("adaptive", "bounded", "lsq", "paper"):
+    for method in ("adaptive", "regional", "bounded", "lsq", "paper"):
         m = ExpressionMapper.fit(sb, se, tb, te, method=method)
         t_one = per_call(lambda m=m: m.weights(x[0]), args.repeat)
         rows.append((f"weights, 1 frame ({method})", t_one, "np.linalg.lstsq, 1 frame (unbounded)", t_ref_one,
@@ -97,6 +98,16 @@ def main(argv: list[str] | None = None) -> int:
     rows.append((f"weights, per frame of {F} (default)", t_batch, f"np.linalg.lstsq, {F} rhs at once",
                  t_ref_batch, 100e-6))
 
+    mr = ExpressionMapper.fit(sb, se, tb, te, method="regional")
+    t_batch_r = per_call(lambda: mr.weights(x), max(5, args.repeat // 20)) / F
+    rows.append((f"weights, per frame of {F} (regional, {len(mr.region_names)} regions)", t_batch_r,
+                 f"np.linalg.lstsq, {F} rhs at once", t_ref_batch, 100e-6))
+    t_fit_r = per_call(lambda: ExpressionMapper.fit(sb, se, tb, te, method="regional"), 3)
+    rows.append(("fit, 13 examples (regional)", t_fit_r, "SVD of V + copy of key-model offsets", t_fit_ref, 1.0))
+    wr = mr.weights(x)
+    t_syn_r = per_call(lambda: mr.synthesize(wr[0]), max(5, args.repeat // 10))
+    rows.append(("synthesize, 1 frame, regional", t_syn_r, "tb + einsum('i,ivk->vk')",
+                 per_call(lambda: tb + np.einsum("i,ivk->vk", wr[0, 0], dT), args.repeat), 1e-3))
     w = m.weights(x)
     t_syn = per_call(lambda: m.synthesize(w[0]), args.repeat)
     t_syn_ref = per_call(lambda: tb + np.einsum("i,ivk->vk", w[0], dT), args.repeat)

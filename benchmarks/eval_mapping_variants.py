@@ -27,7 +27,8 @@ costs little more than the method's own solve.
         [--seed 0]
 
 A method is a name in ``facepuppet.mapping.METHODS``, optionally with option overrides:
-``bounded:angle_ridge=0.1,shrinkage=1``.
+``bounded:angle_ridge=0.1,shrinkage=1``. ``regional`` is fitted with the character's mesh (ICT's neutral and
+the scene's key-models) and scored exactly on the whole mesh region by region (``Scene.regional_score``).
 """
 
 from __future__ import annotations
@@ -176,7 +177,8 @@ class Scene:
         self.sb = body[fp]
         self.se = self.sb + np.tensordot(K, Es[:, fp], 1)
         self.x = self.sb + np.tensordot(W, Es[:, fp], 1)
-        self.K, self.W = K, W
+        self.K, self.W, self.A = K, W, A
+        self.E, self.neutral = E, ict["neutral"].astype(float)
         self.Q = A @ EEt @ A.T  # Gram matrix of the character's shapes: errors live in the 53-d space
         den = np.sqrt(np.einsum("fi,ij,fj->f", W, self.Q, W))
         self.ok = den > 1e-3 * den.max()
@@ -191,6 +193,46 @@ class Scene:
     def score(self, w: np.ndarray) -> float:
         U = w @ self.K - self.W
         num = np.sqrt(np.maximum(np.einsum("fi,ij,fj->f", U, self.Q, U), 0.0))
+        return float(np.mean(num[self.ok] / self.den[self.ok]))
+
+    def targets(self) -> tuple[np.ndarray, np.ndarray]:
+        """The character's neutral (V, 3) and key-models (M, V, 3) (ICT's neutral: shapes do not depend on it)."""
+        return self.neutral, self.neutral + np.tensordot(self.K @ self.A, self.E, 1)
+
+    def regional_score(self, w: np.ndarray, masks: np.ndarray, EEt: np.ndarray) -> float:
+        """Score of regional weights w (F, R, M) with masks (R, V) (background first), exactly on the whole mesh.
+
+        With U_k = (w_k K - W) A and M_0 = 1 - sum_{k>=1} M_k, the error at v is
+        (U_0 + sum_{k>=1} M_k(v) D_k) E(v), D_k = U_k - U_0; its squared norm summed over v is
+        U_0 EEt U_0^T + 2 sum_k U_0 G_k D_k^T + sum_kl D_k G_kl D_l^T with G_k = E diag(M_k) E^T and
+        G_kl = E diag(M_k M_l) E^T, each summed only where the masks are non-zero.
+        """
+        U = np.einsum("frm,mj,jc->frc", w, self.K, self.A) - (self.W @ self.A)[:, None]
+        U0, Dk = U[:, 0], U[:, 1:] - U[:, :1]
+        n, R = len(self.E), len(masks) - 1
+        err2 = np.einsum("fi,ij,fj->f", U0, EEt, U0)
+        support = [np.flatnonzero(masks[k + 1] > 0) for k in range(R)]
+
+        def gram(idx, s):
+            e = self.E[:, idx]
+            return (e * s[:, None]).reshape(n, -1) @ e.reshape(n, -1).T
+
+        if getattr(self, "_gram_masks", None) is not masks:       # the same masks at every noise level
+            self._gram_masks, self._grams = masks, {}
+            for k in range(R):
+                ik = support[k]
+                self._grams[k, -1] = gram(ik, masks[k + 1, ik])
+                for ll in range(k, R):
+                    idx = np.intersect1d(ik, support[ll], assume_unique=True)
+                    if len(idx):
+                        self._grams[k, ll] = gram(idx, masks[k + 1, idx] * masks[ll + 1, idx])
+        for (k, ll), G in self._grams.items():
+            if ll < 0:
+                err2 += 2.0 * np.einsum("fi,ij,fj->f", U0, G, Dk[:, k])
+            else:
+                term = np.einsum("fi,ij,fj->f", Dk[:, k], G, Dk[:, ll])
+                err2 += term if k == ll else 2.0 * term
+        num = np.sqrt(np.maximum(err2, 0.0))
         return float(np.mean(num[self.ok] / self.den[self.ok]))
 
     def noisy(self, level: float, seed: int) -> np.ndarray:
@@ -240,9 +282,12 @@ def main(argv: list[str] | None = None) -> int:
     for si, sc in enumerate(scenes):
         xs = [sc.noisy(level, 1000 + si if si else 0) for level in NOISES]
         for spec, (name, opts) in zip(specs, methods, strict=True):
+            regional = name == "regional"
+            tb, te = sc.targets() if regional else (np.zeros((1, 3)), np.zeros((len(sc.se), 1, 3)))
+            if regional and "n_regions" in opts:
+                opts = {**opts, "n_regions": int(opts["n_regions"])}
             try:
-                m = ExpressionMapper.fit(sc.sb, sc.se, np.zeros((1, 3)), np.zeros((len(sc.se), 1, 3)),
-                                         method=name, **opts)
+                m = ExpressionMapper.fit(sc.sb, sc.se, tb, te, method=name, **opts)
             except Exception as e:  # noqa: BLE001 - a method that cannot fit a scene is counted, not fatal
                 if not fails[spec]:
                     print(f"{spec}: cannot fit {sc.label}: {e}")
@@ -250,7 +295,9 @@ def main(argv: list[str] | None = None) -> int:
                 ratios[spec][si] = np.nan
                 continue
             for ni, x in enumerate(xs):
-                ratios[spec][si, ni] = sc.score(m.weights(x)) / sc.src
+                w = m.weights(x)
+                score = sc.regional_score(w, m.region_masks, EEt) if regional else sc.score(w)
+                ratios[spec][si, ni] = score / sc.src
     t_eval = time.perf_counter() - t0
     print(f"{len(scenes) - 1} held-out scenes x {len(NOISES)} noise levels ({args.frames} frames each) + the "
           f"yardstick's scene; seed {args.seed}; built in {t_build:.1f} s, evaluated in {t_eval:.1f} s")

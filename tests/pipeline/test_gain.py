@@ -48,3 +48,37 @@ def test_bad_specs(spec, match):
 def test_unknown_key_model_named():
     with pytest.raises(ValueError, match="browDown"):
         apply_gain(np.zeros(3), parse_gain(["browDown=2"]), NAMES)
+
+
+REGIONS = ("background", "jaw", "mouth_L", "mouth_R", "brow", "brow_2")
+
+
+def test_region_names_match_by_stem_and_plural():
+    from facepuppet.pipeline.gain import region_matches
+
+    assert region_matches("mouth", "mouth_L") and region_matches("mouth", "mouth_R")
+    assert region_matches("brows", "brow_2") and region_matches("brow", "brow")
+    assert region_matches("mouth_L", "mouth_L") and not region_matches("mouth_L", "mouth_R")
+    assert not region_matches("jaw", "mouth_L")
+
+
+def test_per_region_gain_scales_only_that_region():
+    cfg = parse_gain(["mouth=1.4", "brows=0.5"])
+    w = np.full((len(REGIONS), len(NAMES)), 0.5)
+    out = apply_gain(w, cfg, NAMES, REGIONS)
+    want = np.array([0.5, 0.5, 0.7, 0.7, 0.25, 0.25])[:, None] * np.ones(len(NAMES))
+    np.testing.assert_allclose(out, want)
+
+
+def test_key_and_region_gains_multiply_where_both_apply():
+    cfg = parse_gain(["2", "jawOpen=0.5", "mouth=1.2"])
+    out = apply_gain(np.full((2, len(REGIONS), len(NAMES)), 0.25), cfg, NAMES, REGIONS)
+    np.testing.assert_allclose(out[0, 0], [0.125, 0.5, 0.5])      # background: key gain, else global
+    np.testing.assert_allclose(out[1, 2], [0.15, 0.3, 0.3])       # mouth_L: 0.5*1.2, then region 1.2
+
+
+def test_unknown_region_is_one_error_listing_the_valid_names():
+    with pytest.raises(ValueError, match=r"no key-model or region named nose .*regions background, jaw"):
+        apply_gain(np.zeros((len(REGIONS), len(NAMES))), parse_gain(["nose=2"]), NAMES, REGIONS)
+    with pytest.raises(ValueError, match="regional weights must have shape"):
+        apply_gain(np.zeros(len(NAMES)), parse_gain(["mouth=2"]), NAMES, REGIONS)

@@ -20,6 +20,7 @@ from facepuppet.mapping._cardinal import (
     radial_matrix,
 )
 from facepuppet.mapping._params import check_examples, feature_matrix
+from facepuppet.mapping._regional import RegionalSolver
 
 __all__ = ["METHODS", "DEFAULT_METHOD", "Method", "BoundedSolver", "PaperSolver"]
 
@@ -239,8 +240,13 @@ METHODS: dict[str, Method] = {
     "linear": Method(BoundedSolver, {"bounds": (-_INF, _INF), "ridge": 0.0, "angle_ridge": 0.0, "shrinkage": 1.0,
                                  "correct": False},
                      "unbounded least squares of the feature displacements (projection on the examples)"),
+    "regional": Method(RegionalSolver, {"bounds": (0.0, 1.0), "ridge": 0.0, "angle_ridge": 0.2, "shrinkage": 0.7,
+                                        "correct": None, "noise_ridge": 4.0, "n_regions": 12, "leak": 0.2,
+                                        "support_tol": 1e-3},
+                       "adaptive per region: each region of the character (found from its key-models, or given) "
+                       "gets its own weights from its own feature points (non-uniform blending)"),
     "paper": Method(PaperSolver, {}, "the paper's cardinal basis functions (Eqs. 5-13), unbounded"),
 }
 DEFAULT_METHOD = "adaptive"
 
-SOLVERS = {cls.kind: cls for cls in (BoundedSolver, PaperSolver)}
+SOLVERS = {cls.kind: cls for cls in (BoundedSolver, PaperSolver, RegionalSolver)}

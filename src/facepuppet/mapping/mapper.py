@@ -2,16 +2,16 @@
 
 from __future__ import annotations
 
-import math
 import os
-from dataclasses import dataclass
 
 import numpy as np
 
 from facepuppet._util.atomic import atomic_path
 from facepuppet.errors import FacepuppetError
-from facepuppet.mapping._methods import DEFAULT_METHOD, METHODS, SOLVERS
+from facepuppet.mapping._blend import blend_regions, sparse_masks
+from facepuppet.mapping._methods import METHODS, SOLVERS
 from facepuppet.mapping._metric import nuisance_transform
+from facepuppet.mapping._options import MapperOptions, check_array, resolve_options
 
 __all__ = ["ExpressionMapper", "MapperOptions", "FORMAT", "FORMAT_VERSION"]
 
@@ -20,118 +20,6 @@ FORMAT_VERSION = 1
 _SOLVER_PREFIX = "solver_"
 _REQUIRED = ("format", "version", "method", "solver", "source_base", "source_examples", "target_base",
              "target_deltas", "names")
-
-
-@dataclass(frozen=True, kw_only=True)
-class MapperOptions:
-    """Options of :meth:`ExpressionMapper.fit`; ``None`` means "the method's own value".
-
-    Attributes
-    ----------
-    method : str
-        A name in ``facepuppet.mapping.METHODS`` (see :class:`ExpressionMapper`).
-    bounds : (float, float), optional
-        Box on every weight; must hold 0 and 1 (neutral and examples). Bounded methods only.
-    ridge : float, optional
-        Constant shrinkage of each weight towards zero, relative to the example's strength (``ridge``: 0.1).
-    angle_ridge : float, optional
-        Shrinkage that grows with the sine of the angle between a frame and the examples' span
-        (``adaptive``: 0.2, ``bounded``: 0.3).
-    noise_ridge : float, optional
-        Inverse prior variance of the weights in the Bayesian ridge that grows with the noise variance
-        estimated per frame (``adaptive``: 4, i.e. prior standard deviation 0.5).
-    shrinkage : float in [0, 1], optional
-        Share of the identity in the noise covariance of the metric (``bounded``: 0.7; 1 = Euclidean).
-    correct : bool, optional
-        Add the radial correction that makes the examples exact again after a constant ridge (by default
-        on exactly when ``ridge`` > 0).
-    threshold : float
-        Relative eigenvalue threshold of the PCA (Eq. 6) and of the "cannot tell apart" diagnosis.
-    names : tuple of M str, optional
-        Names of the examples, used in messages and kept in the saved file.
-    point_scale : (P, D) float, optional
-        Noise scale of each feature coordinate (positive): every displacement, the examples' (Eq. 5) and the
-        frames' (Eq. 13), is divided by it before the method sees it, so coordinates a tracker follows
-        poorly count less (a generalised least squares with a diagonal noise covariance). None: all equal.
-        Scaling keeps the guarantees (neutral and examples exact).
-    nuisance : (K, P, D) float, optional
-        Feature points of frames showing the performer's neutral face while the head moves (or the light
-        changes): the directions in which they move away from ``source_base`` count less, in proportion to
-        how much they move (a generalised least squares, :mod:`facepuppet.mapping._metric`).
-    nuisance_floor : float in (0, 1]
-        How far the nuisance directions are discounted: the noise floor as a share of the largest nuisance
-        variance (smaller discounts more).
-    """
-
-    method: str = DEFAULT_METHOD
-    bounds: tuple[float, float] | None = None
-    ridge: float | None = None
-    angle_ridge: float | None = None
-    noise_ridge: float | None = None
-    shrinkage: float | None = None
-    correct: bool | None = None
-    threshold: float = 1e-5
-    names: tuple[str, ...] | None = None
-    point_scale: object = None
-    nuisance: object = None
-    nuisance_floor: float = 1e-4
-
-
-def _array(x, name: str, ndim: int, last: int | tuple[int, ...] | None = None) -> np.ndarray:
-    try:
-        a = np.asarray(x, dtype=float)
-    except (TypeError, ValueError) as e:
-        raise ValueError(f"{name} must be an array of numbers ({e})") from e
-    if a.ndim != ndim:
-        raise ValueError(f"{name} must have {ndim} dimensions, got shape {a.shape}")
-    if last is not None and a.shape[-1] not in np.atleast_1d(last):
-        raise ValueError(f"{name} must have last dimension {' or '.join(map(str, np.atleast_1d(last)))}, "
-                         f"got shape {a.shape}")
-    if 0 in a.shape:
-        raise ValueError(f"{name} is empty (shape {a.shape})")
-    if not np.isfinite(a).all():
-        bad = np.argwhere(~np.isfinite(a))[0]
-        raise ValueError(f"{name} holds NaN or inf (first at index {tuple(int(i) for i in bad)})")
-    return a
-
-
-def _resolve(opts: MapperOptions, m: int) -> dict:
-    """The option values the method runs with, checked."""
-    if opts.method not in METHODS:
-        raise ValueError(f"method must be one of {', '.join(METHODS)}; got {opts.method!r}")
-    spec = METHODS[opts.method]
-    out = dict(spec.defaults)
-    for key in ("bounds", "ridge", "angle_ridge", "noise_ridge", "shrinkage", "correct"):
-        value = getattr(opts, key)
-        if value is None:
-            continue
-        if key not in out:
-            raise ValueError(f"option {key!r} does not apply to method {opts.method!r}")
-        out[key] = value
-    if "bounds" in out:
-        lo, hi = (float(b) for b in out["bounds"])
-        if math.isnan(lo) or math.isnan(hi) or not (lo <= 0.0 and hi >= 1.0):
-            raise ValueError(f"bounds must hold 0 and 1 (neutral and examples), got {out['bounds']}")
-        out["bounds"] = (lo, hi)
-    for key in ("ridge", "angle_ridge", "noise_ridge"):
-        if key in out and not (0.0 <= float(out[key]) < math.inf):
-            raise ValueError(f"{key} must be a finite number >= 0, got {out[key]}")
-    if "correct" in out and out["correct"] is None:
-        out["correct"] = float(out["ridge"]) > 0.0
-    if "shrinkage" in out and not (0.0 <= float(out["shrinkage"]) <= 1.0):
-        raise ValueError(f"shrinkage must lie in [0, 1], got {out['shrinkage']}")
-    if not (0.0 < opts.threshold < 1.0):
-        raise ValueError(f"threshold must lie in (0, 1), got {opts.threshold}")
-    out["threshold"] = float(opts.threshold)
-    if not (0.0 < opts.nuisance_floor <= 1.0):
-        raise ValueError(f"nuisance_floor must lie in (0, 1], got {opts.nuisance_floor}")
-    if opts.names is not None:
-        names = tuple(str(n) for n in opts.names)
-        if len(names) != m:
-            raise ValueError(f"names must hold {m} example names (one per example), got {len(names)}")
-        if len(set(names)) != m:
-            raise ValueError(f"names must be unique; repeated: {sorted({n for n in names if names.count(n) > 1})}")
-    return out
 
 
 class ExpressionMapper:
@@ -214,6 +102,7 @@ class ExpressionMapper:
         self.whiten = whiten
         self._t_flat = target_base.reshape(-1)
         self._d_flat = np.ascontiguousarray(target_deltas.reshape(self.n_examples, -1))
+        self._sparse_masks = self._deltas_c = None
 
     # ----------------------------------------------------------------------------------------- fitting
     @classmethod
@@ -251,10 +140,10 @@ class ExpressionMapper:
         except TypeError as e:
             known = ", ".join(MapperOptions.__dataclass_fields__)
             raise ValueError(f"unknown option in {sorted(options)}; known options: {known}") from e
-        sb = _array(source_base, "source_base", 2, (2, 3))
-        se = _array(source_examples, "source_examples", 3)
-        tb = _array(target_base, "target_base", 2, 3)
-        te = _array(target_examples, "target_examples", 3)
+        sb = check_array(source_base, "source_base", 2, (2, 3))
+        se = check_array(source_examples, "source_examples", 3)
+        tb = check_array(target_base, "target_base", 2, 3)
+        te = check_array(target_examples, "target_examples", 3)
         if se.shape[1:] != sb.shape:
             raise ValueError(f"source_examples must have shape (M, {sb.shape[0]}, {sb.shape[1]}) like "
                              f"source_base, got {se.shape}")
@@ -264,23 +153,37 @@ class ExpressionMapper:
         if len(se) != len(te):
             raise ValueError(f"source_examples and target_examples must hold the same number of examples, "
                              f"got {len(se)} and {len(te)}")
-        resolved = _resolve(opts, len(se))
+        resolved = resolve_options(opts, len(se))
         names = tuple(str(n) for n in opts.names) if opts.names is not None else None
         scale = None
         if opts.point_scale is not None:
-            scale = _array(opts.point_scale, "point_scale", 2, sb.shape[1])
+            scale = check_array(opts.point_scale, "point_scale", 2, sb.shape[1])
             if scale.shape != sb.shape or not (scale > 0).all():
                 raise ValueError(f"point_scale must be positive with shape {sb.shape} like source_base, got "
                                  f"shape {scale.shape}" + ("" if scale.shape != sb.shape else " with values <= 0"))
         whiten = None
         if opts.nuisance is not None:
-            nu = _array(opts.nuisance, "nuisance", 3)
+            nu = check_array(opts.nuisance, "nuisance", 3)
             if nu.shape[1:] != sb.shape:
                 raise ValueError(f"nuisance must have shape (K, {sb.shape[0]}, {sb.shape[1]}) like source_base, "
                                  f"got {nu.shape}")
             whiten = nuisance_transform(_displacements(nu, sb, scale), float(opts.nuisance_floor))
-        V = _displacements(se, sb, scale, whiten)  # Eq. 5
-        solver = METHODS[opts.method].solver.fit(V, resolved, names)
+        cls_ = METHODS[opts.method].solver
+        if getattr(cls_, "needs_target", False):
+            masks = None
+            if opts.regions is not None:
+                masks = check_array(opts.regions, "regions", 2)
+                if masks.shape[1] != len(tb) or (masks < -1e-9).any() or not np.allclose(masks.sum(0), 1.0):
+                    raise ValueError(f"regions must be (R, {len(tb)}) masks >= 0 summing to 1 at every vertex "
+                                     f"(background first), got shape {masks.shape}")
+            rnames = None if opts.region_names is None else tuple(str(n) for n in opts.region_names)
+            if rnames is not None and (masks is None or len(rnames) != len(masks)):
+                raise ValueError("region_names must hold one name per row of regions")
+            solver = cls_.fit(_displacements(se, sb, scale), resolved, names, part=SOLVERS["bounded"],
+                              whiten=whiten, source_deltas=se - sb[None], target_deltas=te - tb[None],
+                              target_base=tb, masks=masks, region_names=rnames)
+        else:
+            solver = cls_.fit(_displacements(se, sb, scale, whiten), resolved, names)  # Eq. 5
         return cls(method=opts.method, solver=solver, source_base=sb, source_examples=se, target_base=tb,
                    target_deltas=te - tb[None], names=names, options=resolved, point_scale=scale, whiten=whiten)
 
@@ -297,6 +200,7 @@ class ExpressionMapper:
         Returns
         -------
         (M,) or (F, M) float
+            With a ``regional`` mapper: (R, M) or (F, R, M), the weights of each region (``region_names``).
         """
         x = np.asarray(points, dtype=float)
         single = x.ndim == 2
@@ -309,23 +213,43 @@ class ExpressionMapper:
             raise ValueError(f"points hold NaN or inf (frame {f}); map only the valid frames")
         if self._inv_scale is not None:
             D = D * self._inv_scale
-        if self.whiten is not None:
+        if self.whiten is not None and not self.regional:
             D = D @ self.whiten
         w = self._solver(D)
         return w[0] if single else w
 
-    def synthesize(self, weights) -> np.ndarray:
+    def synthesize(self, weights, *, wires=None) -> np.ndarray:
         """The character's mesh for the given weights: T_B + Σ w_i (T_i − T_B) (Eq. 14).
+
+        Regional weights (R, M) or (F, R, M) (a ``regional`` mapper's) blend region by region:
+        T_B + Σ_k Σ_i M_k ⊙ w_ik (T_i − T_B), ``region_masks`` M_k.
 
         Parameters
         ----------
-        weights : (M,) or (F, M) float
+        weights : (M,) or (F, M) float, or (R, M) / (F, R, M) with a regional mapper
+        wires : synthesis.CharacterWires, optional
+            The paper's wire-based synthesis instead of Eq. 14: the key-models' wire curves and (r, s) are
+            blended with the weights and the neutral mesh is deformed by them (``wires.synthesize``);
+            global weights (M,) or (F, M) only.
 
         Returns
         -------
         (V, 3) or (F, V, 3) float
         """
         w = np.asarray(weights, dtype=float)
+        if wires is not None:
+            if w.ndim not in (1, 2) or w.shape[-1] != self.n_examples:
+                raise ValueError(f"weights must have shape ({self.n_examples},) or (F, {self.n_examples}) for the "
+                                 f"wire-based synthesis, got {w.shape}")
+            return wires.synthesize(w)
+        if self.regional and w.ndim >= 2 and w.shape[-2:] == (len(self.region_names), self.n_examples):
+            if not np.isfinite(w).all():
+                raise ValueError("weights hold NaN or inf")
+            if self._sparse_masks is None:
+                self._sparse_masks = sparse_masks(self.region_masks)
+                self._deltas_c = np.ascontiguousarray(self.target_deltas, dtype=np.float64)
+            out = blend_regions(self.target_base, self._deltas_c, self._sparse_masks, w.reshape(-1, *w.shape[-2:]))
+            return out.reshape(w.shape[:-2] + out.shape[1:])
         if w.ndim not in (1, 2) or w.shape[-1] != self.n_examples:
             raise ValueError(f"weights must have shape ({self.n_examples},) or (F, {self.n_examples}), "
                              f"got {w.shape}")
@@ -345,6 +269,32 @@ class ExpressionMapper:
     def example_params(self) -> np.ndarray:
         """(M, N̄) parameter vectors p_i = F v_i (Eq. 7)."""
         return self._solver.example_params
+
+    @property
+    def regional(self) -> bool:
+        """True when :meth:`weights` gives one row of weights per region."""
+        return getattr(self._solver, "kind", "") == "regional"
+
+    @property
+    def region_names(self) -> tuple[str, ...]:
+        """Names of the regions (the background first); ``("all",)`` for a global mapper."""
+        return self._solver.region_names if self.regional else ("all",)
+
+    @property
+    def region_masks(self) -> np.ndarray:
+        """(R, V) masks M_k, a partition of unity over the vertices; (1, V) ones for a global mapper."""
+        return self._solver.masks if self.regional else np.ones((1, self.n_vertices))
+
+    @property
+    def region_support(self) -> np.ndarray:
+        """(R, M) bool: which key-models may move which region (the others take weight 0 there)."""
+        return self._solver.support if self.regional else np.ones((1, self.n_examples), dtype=bool)
+
+    def split_targets(self) -> np.ndarray:
+        """(R·M, V, 3) morph targets M_k ⊙ (T_i − T_B), region-major: with the weights ``w.reshape(F, -1)``
+        of :meth:`weights` (F, R, M), T_B + Σ weight · target equals :meth:`synthesize`."""
+        m = self.region_masks
+        return (m[:, None, :, None] * self.target_deltas[None]).reshape(-1, self.n_vertices, 3)
 
     @property
     def source_examples(self) -> np.ndarray:

@@ -1,7 +1,15 @@
-"""Expression gain: attenuate or exaggerate the animation, globally or per key-model.
+"""Expression gain: attenuate or exaggerate the animation, globally, per key-model or per region.
 
 Notes
 -----
+A name in ``--gain NAME=VALUE`` is a key-model of the rig or, with a regional mapping (weights per region,
+``ExpressionMapper.region_names``), a region: ``mouth`` names the regions ``mouth``, ``mouth_L``,
+``mouth_R``, ``mouth_2``, ... (a region's name without its side and number; a trailing ``s`` is dropped, so
+``brows`` names the ``brow`` regions). Regions are named after the key-model that placed them by its leading
+lowercase word and side (``jaw``, ``mouth``, ``eye_L``, ``brow_R``, ``cheek``, ``nose``); ``background`` is
+the rest of the face. In region k the gain of key-model i is the key-model's gain if only it is named, the
+region's if only the region is named, their product if both are, and the global gain otherwise.
+
 The weights of frame k become ``clip(g * w_k, low, high * max(1, g))`` channel by channel, with g the gain of
 that key-model. Clipping (defaults ``low = 0``, ``high = 1``) keeps the character within the span its
 designer modelled: a negative weight of a key-model is the opposite of that expression and looks wrong on
@@ -12,12 +20,13 @@ Set ``low``/``high`` to None to switch either bound off.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["GainConfig", "parse_gain", "gain_vector", "apply_gain", "MAX_GAIN"]
+__all__ = ["GainConfig", "parse_gain", "gain_vector", "gain_matrix", "apply_gain", "region_matches", "MAX_GAIN"]
 
 
 #: Largest expression gain accepted: beyond it every weight is clipped at once (a typing slip, not a choice).
@@ -77,6 +86,34 @@ def parse_gain(specs: Iterable[str] | None) -> GainConfig:
     return GainConfig(gain=gain, per_key=per_key)
 
 
+def region_matches(name: str, region: str) -> bool:
+    """True when the gain name ``name`` names ``region`` (module notes: exact, or its stem without side/number)."""
+    stem = re.sub(r"(_[LR])?(_\d+)?$", "", region)
+    return name in (region, stem) or (name.endswith("s") and name[:-1] == stem)
+
+
+def gain_matrix(config: GainConfig, names: Sequence[str], regions: Sequence[str]) -> np.ndarray:
+    """The gain of each (region, key-model), (R, M) float.
+
+    A name in ``per_key`` must be a key-model or name a region; otherwise one error lists the valid ones.
+    """
+    regions = list(regions)
+    unknown = sorted(n for n in config.per_key
+                     if n not in names and not any(region_matches(n, r) for r in regions))
+    if unknown:
+        have = f"the rig has key-models {', '.join(names)}"
+        if regions:
+            have += f" and regions {', '.join(regions)}"
+        raise ValueError(f"--gain: no key-model or region named {', '.join(unknown)} ({have})")
+    keyed = np.array([n in config.per_key for n in names])
+    g = np.tile(np.array([config.per_key.get(n, config.gain) for n in names], dtype=float), (len(regions), 1))
+    for k, r in enumerate(regions):
+        named = [v for n, v in config.per_key.items() if n not in names and region_matches(n, r)]
+        if named:
+            g[k] = np.where(keyed, g[k] * named[-1], named[-1])
+    return g
+
+
 def gain_vector(config: GainConfig, names: Sequence[str]) -> np.ndarray:
     """The gain of each key-model, (M,) float; a name in ``per_key`` that the rig lacks is an error."""
     unknown = sorted(set(config.per_key) - set(names))
@@ -85,24 +122,32 @@ def gain_vector(config: GainConfig, names: Sequence[str]) -> np.ndarray:
     return np.array([config.per_key.get(n, config.gain) for n in names], dtype=float)
 
 
-def apply_gain(weights: np.ndarray, config: GainConfig, names: Sequence[str]) -> np.ndarray:
+def apply_gain(weights: np.ndarray, config: GainConfig, names: Sequence[str],
+               regions: Sequence[str] | None = None) -> np.ndarray:
     """Scale and clip weights.
 
     Parameters
     ----------
-    weights : (..., M) float
+    weights : (..., M) float, or (..., R, M) with ``regions``
     config : GainConfig
     names : sequence of M str
         Key-model names, in the order of the weights' last axis.
+    regions : sequence of R str, optional
+        Region names, in the order of the weights' second-to-last axis (regional weights).
 
     Returns
     -------
-    (..., M) float, a new array; NaN stays NaN.
+    Same shape, float, a new array; NaN stays NaN.
     """
     w = np.asarray(weights, dtype=float)
     if w.shape[-1:] != (len(names),):
         raise ValueError(f"weights must have {len(names)} channels (one per key-model), got shape {w.shape}")
-    g = gain_vector(config, names)
+    if regions is not None:
+        if w.ndim < 2 or w.shape[-2] != len(regions):
+            raise ValueError(f"regional weights must have shape (..., {len(regions)}, {len(names)}), got {w.shape}")
+        g = gain_matrix(config, names, regions)
+    else:
+        g = gain_vector(config, names)
     out = w * g
     if config.low is not None:
         out = np.where(out < config.low, config.low, out)

@@ -159,6 +159,10 @@ def fit_rig(performer: Performer, character: Character, *, method: str | None = 
     examples = np.stack([performer.examples[performer.names.index(n)] for n in pairing.names])
     targets = np.stack([character.targets[character.names.index(n)] for n in pairing.names])
     options: dict[str, Any] = {}
+    if method == "regional":
+        raise ValueError("--method regional: the animation pipeline plays one weight per key-model; the regional "
+                         "mapping is in the Python API (ExpressionMapper.fit(..., method='regional'), "
+                         "export.gltf_regional.write_regional_glb)")
     if method is not None:
         options["method"] = method
     params = inspect.signature(ExpressionMapper.fit).parameters

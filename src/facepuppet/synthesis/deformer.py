@@ -16,6 +16,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from facepuppet.synthesis._kernels import deform_pairs
 from facepuppet.synthesis.wire import (
     bind_points,
     check_curve,
@@ -98,8 +99,11 @@ class WireDeformer:
     names : sequence of str, optional
         Wire names (default ``wire0``, ``wire1``, ...).
     dtype : float64 or float32
-        Precision of the per-frame passes (the bind and the output are float64). float32 is several times
-        faster (numpy vectorises its trigonometry) at about 1e-7 of the mesh's size.
+        Precision of the numpy per-frame passes (the bind and the output are float64). float32 is several
+        times faster (numpy vectorises its trigonometry) at about 1e-7 of the mesh's size.
+    compiled : bool
+        :meth:`deform` by the compiled float64 pass (:mod:`facepuppet.synthesis._kernels`, one loop over
+        the pairs, the fastest); False: the numpy passes (the reference, in ``dtype``).
 
     Notes
     -----
@@ -118,8 +122,9 @@ class WireDeformer:
     """
 
     def __init__(self, points, references: Sequence, radii, *, exponent: float = DEFAULT_EXPONENT,
-                 names: Sequence[str] | None = None, dtype=np.float64) -> None:
-        self.points = check_points(points)
+                 names: Sequence[str] | None = None, dtype=np.float64, compiled: bool = True) -> None:
+        self.points = np.ascontiguousarray(check_points(points), dtype=np.float64)
+        self.compiled = bool(compiled)
         if isinstance(references, np.ndarray) and references.ndim == 2:
             references = [references]
         refs = [check_curve(c, f"references[{k}]", distinct=True) for k, c in enumerate(references)]
@@ -187,6 +192,14 @@ class WireDeformer:
         self._offset = np.ascontiguousarray((self.points[self.pair_point] - closest).T)
         self._tangent = np.ascontiguousarray(np.concatenate(tangent).reshape(-1, 3).T)
         self._influence = falloff(self.pair_distance / self.radii[self.pair_wire])
+        self._k64 = {"t": np.ascontiguousarray(self._t, dtype=np.float64),
+                     "closest": np.ascontiguousarray(self._closest, dtype=np.float64),
+                     "offset": np.ascontiguousarray(self._offset, dtype=np.float64),
+                     "tangent": np.ascontiguousarray(self._tangent, dtype=np.float64)}
+        self._influence64 = np.ascontiguousarray(self._influence, dtype=np.float64)
+        self.pair_point = self.pair_point.astype(np.int64)
+        self.pair_wire = self.pair_wire.astype(np.int64)
+        self._seg = self._seg.astype(np.int64)
         for name in ("_t", "_1t", "_closest", "_offset", "_tangent", "_influence"):
             setattr(self, name, getattr(self, name).astype(self.dtype))
 
@@ -310,6 +323,28 @@ class WireDeformer:
         (N, 3) float
             p + the combined displacement (module docstring).
         """
+        if self.compiled:
+            return self._deform_compiled(wires, scales, radii)
         delta, f = self._deltas(wires, scales, radii)
         active = None if radii is None else f > 0
         return self.points + _combine(self.pair_point, delta, len(self.points), self.exponent, active).T
+
+    def _deform_compiled(self, wires, scales, radii) -> np.ndarray:
+        w_pts, w_tan = self._wire_arrays(wires)
+        if scales is None:
+            sv = np.ones(self.n_wires)
+        else:
+            sv = np.asarray(scales, dtype=float)
+            if sv.ndim == 0:
+                sv = np.full(self.n_wires, float(sv))
+            if sv.shape != (self.n_wires,) or not np.isfinite(sv).all():
+                raise ValueError(f"scales must be a finite number or have shape ({self.n_wires},), "
+                                 f"got {np.shape(scales)}")
+        f = self._influence64 if radii is None else self._pair_influence(radii).astype(np.float64)
+        out = np.empty_like(self.points)
+        k = self._k64
+        deform_pairs(self.points, self.pair_point, self.pair_wire, self._seg, k["t"], k["closest"], k["offset"],
+                     k["tangent"], f, radii is not None, np.ascontiguousarray(w_pts, dtype=np.float64),
+                     np.ascontiguousarray(w_tan, dtype=np.float64), np.ascontiguousarray(sv, dtype=np.float64),
+                     float(self.exponent), out)
+        return out

@@ -14,8 +14,9 @@ vertices; 0 for a key-model that moves nothing and is reproduced exactly).
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -23,6 +24,7 @@ from scipy.optimize import least_squares
 from facepuppet.io.character import Character
 from facepuppet.synthesis.deformer import DEFAULT_EXPONENT, WireDeformer
 from facepuppet.synthesis.paths import FindOptions, check_paths, find_wire_paths
+from facepuppet.synthesis.regions import region_masks
 
 __all__ = ["CharacterWires", "FitOptions", "fit_wires", "reproduction_errors"]
 
@@ -119,6 +121,87 @@ class CharacterWires:
         refs = self.references
         d = WireDeformer(self.neutral, [refs[k] for k in act], self.radii[i, act], exponent=self.exponent)
         return d.deform([self.curves[k][i] for k in act], self.scales[i, act])
+
+
+    def regions(self) -> tuple[np.ndarray, tuple[str, ...]]:
+        """Region masks from the wires' influence, for the regional mapping (``fit(..., regions=...)``).
+
+        Each wire's influence F_k at its largest fitted radius over the key-models it takes part in
+        (:meth:`WireDeformer.influence`), made a partition of unity by :func:`region_masks` (background first).
+        Names: ``background``, then each wire's name by its leading lowercase word and side (``jawOpen`` ->
+        ``jaw``, ``eyeBlink_L`` -> ``eye_L``; repeated ones numbered ``_2``, ``_3``).
+
+        Returns
+        -------
+        masks : (n_wires + 1, V) float
+        names : tuple of n_wires + 1 str
+        """
+        radii = np.where(self.active, self.radii, 0.0).max(axis=0)
+        radii = np.where(radii > 0, radii, self.radii.max(axis=0))
+        influence = WireDeformer(self.neutral, self.references, radii, exponent=self.exponent).influence()
+        names = ["background"]
+        for n in self.names:
+            side = n[-2:] if n.endswith(("_L", "_R")) else ""
+            word = re.match(r"[a-z]+", n)
+            name = base = (word.group(0) if word else n[: len(n) - len(side)]) + side
+            j = 2
+            while name in names:
+                name, j = f"{base}_{j}", j + 1
+            names.append(name)
+        return region_masks(influence), tuple(names)
+
+    def with_curve(self, i: int, k: int, curve) -> CharacterWires:
+        """A copy whose key-model ``i`` has wire ``k``'s curve replaced by ``curve`` (K_k, 3) (an edit).
+
+        The wire becomes active for key-model ``i`` (with its fitted or the largest radius). Only the
+        vertices that wire reaches (closer than its radius to R_k) can change in :meth:`reproduce`.
+        """
+        c = np.asarray(curve, dtype=float)
+        if c.shape != self.curves[k].shape[1:] or not np.isfinite(c).all():
+            raise ValueError(f"curve must be a finite {self.curves[k].shape[1:]} array, got shape {c.shape}")
+        curves = list(self.curves)
+        curves[k] = curves[k].copy()
+        curves[k][i] = c
+        active = self.active.copy()
+        active[i, k] = True
+        return replace(self, curves=tuple(curves), active=active)
+
+    def synthesize(self, weights) -> np.ndarray:
+        """The paper's wire-based synthesis: blend the key-models' wires, then deform T_B with them.
+
+        For weights w (M,): W_k(w) = R_k + sum_i w_i a_ik (W_ik - R_k), s_k(w) = 1 + sum_i w_i a_ik (s_ik - 1)
+        and r_k(w) = sum_i w_i a_ik r_ik / sum_i w_i a_ik (the bound radius when no active key-model has
+        weight), a_ik = ``active``; the mesh is T_B deformed by all wires (:class:`WireDeformer`, bound once at
+        the largest radii). With w = e_i it is :meth:`reproduce` (i); with w = 0 it is T_B.
+
+        Parameters
+        ----------
+        weights : (M,) or (F, M) float
+
+        Returns
+        -------
+        (V, 3) or (F, V, 3) float
+        """
+        w = np.asarray(weights, dtype=float)
+        m = len(self.key_names)
+        if w.shape[-1:] != (m,) or w.ndim not in (1, 2) or not np.isfinite(w).all():
+            raise ValueError(f"weights must be finite with shape ({m},) or (F, {m}), got {w.shape}")
+        frames = np.atleast_2d(w)
+        refs = self.references
+        bound = np.where(self.active, self.radii, 0.0).max(axis=0)
+        bound = np.where(bound > 0, bound, self.radii.max(axis=0))
+        deformer = WireDeformer(self.neutral, refs, bound, exponent=self.exponent, names=self.names)
+        a = self.active.astype(float)
+        out = np.empty((len(frames), len(self.neutral), 3))
+        for f, wf in enumerate(frames):
+            wa = wf[:, None] * a                                                   # (M, n_wires)
+            curves = [r + np.tensordot(wa[:, k], c - r[None], 1) for k, (r, c) in enumerate(zip(refs, self.curves,
+                                                                                              strict=True))]
+            scales = 1.0 + (wa * (self.scales - 1.0)).sum(axis=0)
+            tot = wa.sum(axis=0)
+            radii = np.where(tot != 0, (wa * self.radii).sum(axis=0) / np.where(tot != 0, tot, 1.0), bound)
+            out[f] = deformer.deform(curves, scales, radii=np.clip(radii, 1e-12, bound))
+        return out[0] if w.ndim == 1 else out
 
 
 def reproduction_errors(character: Character, wires: CharacterWires) -> np.ndarray:
