@@ -18,6 +18,7 @@ import cv2
 import numpy as np
 
 from facepuppet.capture.color.config import ColorTrackerConfig
+from facepuppet.capture.color.detect import face_boxes, frames_of_boxes, inside_box
 from facepuppet.capture.color.eye_anchors import (
     calibrated_anchors,
     eye_centres,
@@ -144,9 +145,17 @@ class Acquirer:
         # the hypothesis that looks most like a face is kept: the crops are evened out the same way until the
         # face is lost.
         best, light, seen = None, None, []
-        hypotheses = [(None, None), (light_balance(rgb), None)]
+        # Windows with a face's pattern of dark features: candidates of their own, and the support a candidate
+        # needs in a scene the skin model cannot tell from skin.
+        boxes = face_boxes(rgb) if cfg.acquire.cascade else np.zeros((0, 4))
+        hypotheses = [(None, None), (light_balance(rgb), None)] + [(None, f) for f in frames_of_boxes(boxes)]
         if last is not None:
             hypotheses.insert(0, (last_light, last))
+
+        def value(result: Measurement) -> float:
+            lost = len(boxes) and not inside_box(result.frame, boxes)
+            return likeness(result, last, cost) - (cfg.acquire.unsupported_cost if lost else 0.0)
+
         for M, frame in hypotheses:
             if frame is None:
                 frame = find_face(rgb if M is None else cv2.transform(rgb, M), self.tracker.profile.skin)
@@ -155,7 +164,7 @@ class Acquirer:
             seen.append(frame)
             place.light = M
             got = self.refine(rgb, candidate_frames(frame), last)
-            if got is not None and (best is None or likeness(got, last, cost) > likeness(best, last, cost)):
+            if got is not None and (best is None or value(got) > value(best)):
                 best, light = got, M
         place.light = (light if light is None or best is None
                        else fit_light(rgb, best.frame, light, cfg.measure.px, self.tracker.crop_size))
