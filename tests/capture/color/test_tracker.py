@@ -263,3 +263,40 @@ def test_head_turns_are_not_reported_the_wrong_way_round():
     assert np.abs(angles[:, :2]).max() < 1e-6
     assert np.corrcoef(angles[:, 2], true[:, 2])[0, 1] > 0.9
     assert np.abs(angles[:, 2] - true[:, 2]).max() < 3.0
+
+
+def test_trained_profile_reads_the_head_turn():
+    """A profile trained on the digital performer's frames with their true curves and head rotations reads
+    yaw and pitch off the crop (:mod:`~facepuppet.capture.color.head_turn`) on frames it was not trained on,
+    and the roll still comes from the face frame."""
+    from facepuppet.capture.color.train import train_profile
+    from facepuppet.capture.pose import HeadPose, default_camera
+    from facepuppet.demo.performer import head_pose, performer_curves, render_performer
+    from facepuppet.demo.script import KEY_NAMES
+
+    size = (320, 320)
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 4.0 * np.pi, 120)
+    motion = np.zeros((len(t), 6))
+    motion[:, 0] = np.radians(12.0) * np.sin(t)                # yaw
+    motion[:, 1] = np.radians(8.0) * np.sin(0.7 * t + 1.0)     # pitch
+    motion[:, 2] = np.radians(5.0) * np.sin(0.5 * t)           # roll
+    weights = np.clip(rng.normal(0.0, 0.25, size=(len(t), len(KEY_NAMES))), 0.0, 1.0)
+    frames = [render_performer(w, m, size) for w, m in zip(weights, motion, strict=True)]
+    train = np.arange(0, len(t), 2)
+    profile = train_profile([frames[k] for k in train],
+                            np.stack([performer_curves(weights[k], motion[k], size) for k in train]),
+                            rotations=np.stack([head_pose(motion[k], size).rotation for k in train]))
+    assert profile.head
+    tracker = ColorTracker(profile)
+    K = default_camera(size)
+    got, true = [], []
+    for i in range(1, len(t), 2):
+        f = tracker.track(frames[i], 66 * i)
+        assert f.valid
+        got.append(HeadPose(f.rotation, f.translation, K).angles())
+        true.append(head_pose(motion[i], size).angles())
+    got, true = np.degrees(got), np.degrees(true)
+    for k in range(3):
+        assert np.corrcoef(got[:, k], true[:, k])[0, 1] > 0.9, k
+    assert np.abs(got - true).mean(axis=0).max() < 2.5, np.abs(got - true).mean(axis=0)

@@ -8,9 +8,13 @@ eyes, eyelids, nostrils, a mouth, and so on)". Ours (:data:`SUBAREAS`): the mean
 (both cheeks, forehead, both eyes, both upper lids, nostrils, mouth) and, so that the network sees the colour
 of the light and not only its strength, the red and blue chromaticity R/(R+G+B), B/(R+G+B) of the cheeks.
 
-Training uses scikit-learn's :class:`~sklearn.neural_network.MLPRegressor` (one hidden layer of 10 logistic
-units); the fitted layers are kept as plain arrays, so evaluating needs only numpy and a profile loads without
-pickle. Training targets come from :func:`separating_weights` (see :mod:`facepuppet.capture.color.train`).
+One hidden layer of 10 logistic units. Its input weights and biases are a fixed draw (a seeded generator,
+scaled so that standardised inputs meet the units in their responsive range); the output layer is then the
+ridge regression of the targets on the hidden units, a problem with one minimum, solved in closed form. So
+the fit is a smooth function of its inputs: the same data always give the same network, and inputs that
+differ by rounding give weights that differ by as little. The layers are kept as plain arrays, so evaluating
+needs only numpy and a profile loads without pickle. Training targets come from :func:`separating_weights`
+(see :mod:`facepuppet.capture.color.train`).
 """
 
 from __future__ import annotations
@@ -22,7 +26,7 @@ import numpy as np
 from facepuppet.capture.color.face import CROP_EXTENT
 
 __all__ = ["SUBAREAS", "N_INPUTS", "WEIGHT_SCALE", "ColourNet", "subarea_means", "separating_weights",
-           "constrain_weights", "fisher_separation"]
+           "constrain_weights", "fisher_separation", "hidden_layer"]
 
 #: Sub-areas in face units (x0, y0, x1, y1); the first nine give mean luma, "cheeks" also the chromaticity.
 SUBAREAS: dict[str, tuple[float, float, float, float]] = {
@@ -46,8 +50,9 @@ _LUMA = np.array([0.299, 0.587, 0.114], dtype=np.float32)
 # Tuning constants            unit        what it does
 N_HIDDEN = 10                 # units       hidden sigmoid units of the network (§3.1: 11-10-4)
 MIN_VALUE_WEIGHT = 0.05       # fraction    of WEIGHT_SCALE the value weight w3 stays below zero by
-L2_PENALTY = 1e-3             # -           the network's weight decay (scikit-learn's alpha)
-MAX_ITERATIONS = 3000         # steps       most L-BFGS iterations of the training
+RIDGE = 1e-3                  # per sample  the output layer's ridge penalty (times the number of samples)
+HIDDEN_SEED = 11              # -           seed of the hidden layer's fixed draw
+HIDDEN_BIAS = 0.5             # -           standard deviation of the hidden units' biases
 MIN_INPUT_STD = 1e-3          # -           floor of an input's standard deviation in the normalisation
 
 
@@ -179,16 +184,24 @@ class ColourNet:
         return cls(**out)
 
     @classmethod
-    def fit(cls, x: np.ndarray, y: np.ndarray, *, seed: int = 0) -> ColourNet:
-        """Train on inputs (N, 11) and target weights (N, 4) with scikit-learn (L-BFGS, 10 logistic units)."""
-        from sklearn.neural_network import MLPRegressor
-
+    def fit(cls, x: np.ndarray, y: np.ndarray, *, seed: int = HIDDEN_SEED) -> ColourNet:
+        """Fit to inputs (N, 11) and target weights (N, 4): a fixed hidden layer drawn with ``seed``, then the
+        output layer by ridge regression (closed form, one minimum)."""
         x = np.asarray(x, dtype=float)
         y = np.asarray(y, dtype=float)
         if x.ndim != 2 or x.shape[1] != N_INPUTS or y.shape != (len(x), 4):
             raise ValueError(f"x must be (N, {N_INPUTS}) and y (N, 4), got {x.shape} and {y.shape}")
         mean, std = x.mean(axis=0), np.maximum(x.std(axis=0), MIN_INPUT_STD)
-        mlp = MLPRegressor(hidden_layer_sizes=(N_HIDDEN,), activation="logistic", solver="lbfgs", alpha=L2_PENALTY,
-                           max_iter=MAX_ITERATIONS, random_state=seed)
-        mlp.fit((x - mean) / std, y)
-        return cls(mlp.coefs_[0], mlp.intercepts_[0], mlp.coefs_[1], mlp.intercepts_[1], mean, std)
+        w0, b0 = hidden_layer(seed)
+        h = 1.0 / (1.0 + np.exp(-(((x - mean) / std) @ w0 + b0)))
+        h_mean, y_mean = h.mean(axis=0), y.mean(axis=0)
+        hc = h - h_mean
+        w1 = np.linalg.solve(hc.T @ hc + RIDGE * len(x) * np.eye(N_HIDDEN), hc.T @ (y - y_mean))
+        return cls(w0, b0, w1, y_mean - h_mean @ w1, mean, std)
+
+
+def hidden_layer(seed: int = HIDDEN_SEED) -> tuple[np.ndarray, np.ndarray]:
+    """The network's fixed hidden layer: weights (11, 10) of standard deviation 1/sqrt(11) (unit variance of
+    a unit's input for standardised inputs) and biases (10,), drawn from ``numpy.random.default_rng(seed)``."""
+    rng = np.random.default_rng(seed)
+    return rng.normal(size=(N_INPUTS, N_HIDDEN)) / np.sqrt(N_INPUTS), HIDDEN_BIAS * rng.normal(size=N_HIDDEN)
