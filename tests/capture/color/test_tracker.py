@@ -64,9 +64,9 @@ def test_tracks_a_real_clip_near_mediapipe(clip):
     got = [tracker.track(f, 100 * i) for i, f in enumerate(frames)]
     assert all(g.valid for g in got)
     nme = np.stack([_nme(g.curves, r) for g, r in zip(got, ref, strict=True)])
-    # Generous bound (measured about 0.05 on the whole clip); each family well under a tenth of the eye span.
-    assert nme.mean() < 0.08, nme.mean(axis=0)
-    assert np.all(nme.mean(axis=0) < 0.14), dict(zip(MEASURED, nme.mean(axis=0).round(3), strict=True))
+    # Measured: mean 0.029, the worst family 0.039.
+    assert nme.mean() < 0.035, nme.mean(axis=0)
+    assert np.all(nme.mean(axis=0) < 0.05), dict(zip(MEASURED, nme.mean(axis=0).round(3), strict=True))
     g = got[5]
     assert g.curves.shape == (len(CURVE_NAMES), 4, 2) and g.points.shape == (len(POINT_NAMES), 3)
     assert np.isfinite(g.rotation).all() and np.isfinite(g.points).all()
@@ -97,7 +97,8 @@ def test_tracks_the_clip_in_a_changed_light(clip, light):
     got = [tracker.track(np.clip(f * gain, 0, 255).astype(np.uint8), 100 * i) for i, f in enumerate(frames)]
     assert np.mean([g.valid for g in got]) >= 0.95
     nme = np.stack([_nme(g.curves, r) for g, r in zip(got, ref, strict=True) if g.valid])
-    assert nme.mean() < 0.08, nme.mean(axis=0)
+    # Measured: 0.031 dim, 0.049 warm.
+    assert nme.mean() < {"dim": 0.04, "warm": 0.06}[light], nme.mean(axis=0)
 
 
 def test_profile_from_a_file(tmp_path, clip):
@@ -123,7 +124,7 @@ def test_calibrated_profile_tracks_the_rest_of_the_clip(clip):
     got = [tracker.track(f, 100 * i) for i, f in enumerate(frames[15:])]
     assert all(g.valid for g in got)
     nme = np.stack([_nme(g.curves, r) for g, r in zip(got, ref[15:], strict=True)])
-    assert nme.mean() < 0.08, nme.mean(axis=0)
+    assert nme.mean() < 0.032, nme.mean(axis=0)         # measured 0.024
 
 
 def _eye_opening(curves):
@@ -297,6 +298,8 @@ def test_trained_profile_reads_the_head_turn():
         got.append(HeadPose(f.rotation, f.translation, K).angles())
         true.append(head_pose(motion[i], size).angles())
     got, true = np.degrees(got), np.degrees(true)
-    for k in range(3):
-        assert np.corrcoef(got[:, k], true[:, k])[0, 1] > 0.9, k
-    assert np.abs(got - true).mean(axis=0).max() < 2.5, np.abs(got - true).mean(axis=0)
+    r = [np.corrcoef(got[:, k], true[:, k])[0, 1] for k in range(3)]
+    mae = np.abs(got - true).mean(axis=0)
+    # Measured: r 0.99 / 0.98 / 0.97 and MAE 1.3 / 1.0 / 0.8 degrees (yaw / pitch / roll).
+    assert min(r) > 0.95, r
+    assert mae.max() < 1.6, mae
