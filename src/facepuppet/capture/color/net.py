@@ -8,14 +8,9 @@ eyes, eyelids, nostrils, a mouth, and so on)". Ours (:data:`SUBAREAS`): the mean
 (both cheeks, forehead, both eyes, both upper lids, nostrils, mouth) and, so that the network sees the colour
 of the light and not only its strength, the red and blue chromaticity R/(R+G+B), B/(R+G+B) of the cheeks.
 
-One hidden layer of 10 logistic units. The fit starts from a fixed point (the hidden layer a seeded draw,
-scaled so that standardised inputs meet the units in their responsive range; the output layer the ridge
-regression of the targets on those units, a problem with one minimum) and takes a fixed number of damped
-Gauss-Newton steps on all layers with fixed damping and no line search. No branch depends on the data, so
-the fit is a smooth function of it: the same data always give the same network, and inputs that differ by
-rounding give weights that differ by as little. The layers are kept as plain arrays, so evaluating
-needs only numpy and a profile loads without pickle. Training targets come from :func:`separating_weights`
-(see :mod:`facepuppet.capture.color.train`).
+Training uses scikit-learn's :class:`~sklearn.neural_network.MLPRegressor` (one hidden layer of 10 logistic
+units); the fitted layers are kept as plain arrays, so evaluating needs only numpy and a profile loads without
+pickle. Training targets come from :func:`separating_weights` (see :mod:`facepuppet.capture.color.train`).
 """
 
 from __future__ import annotations
@@ -27,7 +22,7 @@ import numpy as np
 from facepuppet.capture.color.face import CROP_EXTENT
 
 __all__ = ["SUBAREAS", "N_INPUTS", "WEIGHT_SCALE", "ColourNet", "subarea_means", "separating_weights",
-           "constrain_weights", "fisher_separation", "hidden_layer"]
+           "constrain_weights", "fisher_separation"]
 
 #: Sub-areas in face units (x0, y0, x1, y1); the first nine give mean luma, "cheeks" also the chromaticity.
 SUBAREAS: dict[str, tuple[float, float, float, float]] = {
@@ -51,12 +46,8 @@ _LUMA = np.array([0.299, 0.587, 0.114], dtype=np.float32)
 # Tuning constants            unit        what it does
 N_HIDDEN = 10                 # units       hidden sigmoid units of the network (§3.1: 11-10-4)
 MIN_VALUE_WEIGHT = 0.05       # fraction    of WEIGHT_SCALE the value weight w3 stays below zero by
-RIDGE = 1e-3                  # per sample  the output layer's ridge penalty (times the number of samples)
-HIDDEN_SEED = 11              # -           seed of the hidden layer's fixed draw
-HIDDEN_BIAS = 0.5             # -           standard deviation of the hidden units' biases
-FIT_STEPS = 100               # steps       damped Gauss-Newton steps of the training
-DAMPING = 1e-2                # -           their damping, a share of the mean curvature
-WEIGHT_DECAY = 1e-4           # per sample  the penalty on the layers' weights in those steps
+L2_PENALTY = 1e-3             # -           the network's weight decay (scikit-learn's alpha)
+MAX_ITERATIONS = 3000         # steps       most L-BFGS iterations of the training
 MIN_INPUT_STD = 1e-3          # -           floor of an input's standard deviation in the normalisation
 
 
@@ -188,67 +179,16 @@ class ColourNet:
         return cls(**out)
 
     @classmethod
-    def fit(cls, x: np.ndarray, y: np.ndarray, *, seed: int = HIDDEN_SEED) -> ColourNet:
-        """Fit to inputs (N, 11) and target weights (N, 4): from a fixed start (the hidden layer drawn with
-        ``seed``, the output layer by ridge regression on it), a fixed number of damped Gauss-Newton
-        (Levenberg-Marquardt) steps on all layers, with fixed damping and no line search: no branch depends on
-        the data, so the fit is a smooth function of it."""
+    def fit(cls, x: np.ndarray, y: np.ndarray, *, seed: int = 0) -> ColourNet:
+        """Train on inputs (N, 11) and target weights (N, 4) with scikit-learn (L-BFGS, 10 logistic units)."""
+        from sklearn.neural_network import MLPRegressor
+
         x = np.asarray(x, dtype=float)
         y = np.asarray(y, dtype=float)
         if x.ndim != 2 or x.shape[1] != N_INPUTS or y.shape != (len(x), 4):
             raise ValueError(f"x must be (N, {N_INPUTS}) and y (N, 4), got {x.shape} and {y.shape}")
         mean, std = x.mean(axis=0), np.maximum(x.std(axis=0), MIN_INPUT_STD)
-        z = (x - mean) / std
-        w0, b0 = hidden_layer(seed)
-        h = 1.0 / (1.0 + np.exp(-(z @ w0 + b0)))
-        h_mean, y_mean = h.mean(axis=0), y.mean(axis=0)
-        hc = h - h_mean
-        w1 = np.linalg.solve(hc.T @ hc + RIDGE * len(x) * np.eye(N_HIDDEN), hc.T @ (y - y_mean))
-        theta = _pack(w0, b0, w1, y_mean - h_mean @ w1)
-        decay = WEIGHT_DECAY * len(x) * _decayed()
-        for _ in range(FIT_STEPS):
-            r, J = _residuals(theta, z, y)
-            A = J.T @ J
-            A[np.diag_indices_from(A)] += decay + DAMPING * (np.trace(A) / len(A))
-            theta = theta - np.linalg.solve(A, J.T @ r + decay * theta)
-        return cls(*_unpack(theta), mean, std)
-
-
-_SIZES = (N_INPUTS * N_HIDDEN, N_HIDDEN, N_HIDDEN * 4, 4)
-
-
-def _pack(w0, b0, w1, b1) -> np.ndarray:
-    return np.concatenate([np.ravel(w0), np.ravel(b0), np.ravel(w1), np.ravel(b1)])
-
-
-def _unpack(theta: np.ndarray):
-    a, b, c = np.cumsum(_SIZES)[:3]
-    return (theta[:a].reshape(N_INPUTS, N_HIDDEN), theta[a:b], theta[b:c].reshape(N_HIDDEN, 4), theta[c:])
-
-
-def _decayed() -> np.ndarray:
-    """1 for the parameters under weight decay (the layers' weights), 0 for the biases."""
-    return _pack(np.ones((N_INPUTS, N_HIDDEN)), np.zeros(N_HIDDEN), np.ones((N_HIDDEN, 4)), np.zeros(4))
-
-
-def _residuals(theta: np.ndarray, z: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The residuals (N * 4,) of the network ``theta`` on standardised inputs z (N, 11) and targets y (N, 4),
-    and their Jacobian (N * 4, len(theta))."""
-    w0, b0, w1, b1 = _unpack(theta)
-    h = 1.0 / (1.0 + np.exp(-(z @ w0 + b0)))
-    r = (h @ w1 + b1 - y).ravel()
-    n = len(z)
-    g = h * (1.0 - h)                                                   # (N, 10) sigmoid slope
-    dh = g[:, None, :] * w1.T[None, :, :]                               # (N, 4, 10) d out_k / d pre-activation_j
-    J_w0 = (dh[:, :, None, :] * z[:, None, :, None]).reshape(n * 4, -1)  # (N*4, 11*10)
-    J_b0 = dh.reshape(n * 4, N_HIDDEN)
-    J_w1 = (h[:, None, :, None] * np.eye(4)[None, :, None, :]).reshape(n * 4, -1)
-    J_b1 = np.tile(np.eye(4), (n, 1))
-    return r, np.hstack([J_w0, J_b0, J_w1, J_b1])
-
-
-def hidden_layer(seed: int = HIDDEN_SEED) -> tuple[np.ndarray, np.ndarray]:
-    """The network's fixed hidden layer: weights (11, 10) of standard deviation 1/sqrt(11) (unit variance of
-    a unit's input for standardised inputs) and biases (10,), drawn from ``numpy.random.default_rng(seed)``."""
-    rng = np.random.default_rng(seed)
-    return rng.normal(size=(N_INPUTS, N_HIDDEN)) / np.sqrt(N_INPUTS), HIDDEN_BIAS * rng.normal(size=N_HIDDEN)
+        mlp = MLPRegressor(hidden_layer_sizes=(N_HIDDEN,), activation="logistic", solver="lbfgs", alpha=L2_PENALTY,
+                           max_iter=MAX_ITERATIONS, random_state=seed)
+        mlp.fit((x - mean) / std, y)
+        return cls(mlp.coefs_[0], mlp.intercepts_[0], mlp.coefs_[1], mlp.intercepts_[1], mean, std)

@@ -239,7 +239,7 @@ def train_profile(frames, curves, *, base: Profile | None = None, name: str = "p
         ys.append(separating_weights(ch[:, feats[i]].T, ch[:, skins[i]].T))
         xs.append(subarea_means(crop, TRAIN_PX))
     xs, ys = np.array(xs), np.array(ys)
-    net = ColourNet.fit(xs, ys)
+    net = ColourNet.fit(xs, ys, seed=seed)
     weights = ys[:len(crops)].mean(axis=0)
     profile = replace(base, layout=layout, skin=skin_model, lip_hue=lip, weights=weights.astype(np.float64),
                       net=net.to_arrays(), name=name, mouth_reach=reach)
