@@ -64,6 +64,7 @@ def train_profile_on_media(media: str | os.PathLike, path: str | os.PathLike, *,
                 frames.append(rgb)
             if k >= keep[-1]:
                 break
-    profile = train_profile(frames, labels.curves[keep[:len(frames)]], name=Path(media).stem)
+    profile = train_profile(frames, labels.curves[keep[:len(frames)]], name=Path(media).stem,
+                            rotations=np.asarray(labels.rotation[keep[:len(frames)]], dtype=float))
     save_profile(path, profile)
     return labels

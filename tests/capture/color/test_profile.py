@@ -217,3 +217,26 @@ def test_reestimated_weights_keep_features_separable_when_the_light_changes(labe
         assert n1 > 0.85 * n0, (light, n1, n0)
     cooler = _separation(frames, curves, test, (0.6, -0.2, 1.0), fixed)
     assert cooler < 0.8 * f0                                     # fixed weights degrade there
+
+
+def test_head_turn_model_round_trip_and_damage(tmp_path, rng):
+    from facepuppet.capture.color.head_turn import N_FEATURES, apply_turn_model, fit_turn_model
+
+    x = rng.normal(size=(60, N_FEATURES))
+    yaw_pitch = np.column_stack([0.01 * x[:, 0], 0.01 * x[:, -1]])
+    head = fit_turn_model(x, yaw_pitch)
+    assert head["coef"].shape == (2, N_FEATURES)
+    path = tmp_path / "p.npz"
+    save_profile(path, Profile(head=head))
+    got = load_profile(path)
+    np.testing.assert_array_equal(got.head["coef"], head["coef"])
+    assert default_profile().head == {}
+    crop = rng.integers(0, 255, size=(134, 125, 3), dtype=np.uint8)
+    S = np.eye(2, 3)
+    np.testing.assert_allclose(apply_turn_model(got.head, crop, S, 48.0), apply_turn_model(head, crop, S, 48.0))
+    with np.load(path) as d:
+        arrays = {k: d[k] for k in d.files}
+    arrays["head_coef"] = arrays["head_coef"][:, :10]
+    np.savez(tmp_path / "bad.npz", **arrays)
+    with pytest.raises(FacepuppetError, match="head-turn model"):
+        load_profile(tmp_path / "bad.npz")

@@ -64,9 +64,9 @@ def test_tracks_a_real_clip_near_mediapipe(clip):
     got = [tracker.track(f, 100 * i) for i, f in enumerate(frames)]
     assert all(g.valid for g in got)
     nme = np.stack([_nme(g.curves, r) for g, r in zip(got, ref, strict=True)])
-    # Generous bound (measured about 0.05 on the whole clip); each family well under a tenth of the eye span.
-    assert nme.mean() < 0.08, nme.mean(axis=0)
-    assert np.all(nme.mean(axis=0) < 0.14), dict(zip(MEASURED, nme.mean(axis=0).round(3), strict=True))
+    # Measured: mean 0.029, the worst family 0.039.
+    assert nme.mean() < 0.035, nme.mean(axis=0)
+    assert np.all(nme.mean(axis=0) < 0.05), dict(zip(MEASURED, nme.mean(axis=0).round(3), strict=True))
     g = got[5]
     assert g.curves.shape == (len(CURVE_NAMES), 4, 2) and g.points.shape == (len(POINT_NAMES), 3)
     assert np.isfinite(g.rotation).all() and np.isfinite(g.points).all()
@@ -97,7 +97,8 @@ def test_tracks_the_clip_in_a_changed_light(clip, light):
     got = [tracker.track(np.clip(f * gain, 0, 255).astype(np.uint8), 100 * i) for i, f in enumerate(frames)]
     assert np.mean([g.valid for g in got]) >= 0.95
     nme = np.stack([_nme(g.curves, r) for g, r in zip(got, ref, strict=True) if g.valid])
-    assert nme.mean() < 0.08, nme.mean(axis=0)
+    # Measured: 0.031 dim, 0.049 warm.
+    assert nme.mean() < {"dim": 0.04, "warm": 0.06}[light], nme.mean(axis=0)
 
 
 def test_profile_from_a_file(tmp_path, clip):
@@ -123,7 +124,7 @@ def test_calibrated_profile_tracks_the_rest_of_the_clip(clip):
     got = [tracker.track(f, 100 * i) for i, f in enumerate(frames[15:])]
     assert all(g.valid for g in got)
     nme = np.stack([_nme(g.curves, r) for g, r in zip(got, ref[15:], strict=True)])
-    assert nme.mean() < 0.08, nme.mean(axis=0)
+    assert nme.mean() < 0.032, nme.mean(axis=0)         # measured 0.024
 
 
 def _eye_opening(curves):
@@ -263,3 +264,42 @@ def test_head_turns_are_not_reported_the_wrong_way_round():
     assert np.abs(angles[:, :2]).max() < 1e-6
     assert np.corrcoef(angles[:, 2], true[:, 2])[0, 1] > 0.9
     assert np.abs(angles[:, 2] - true[:, 2]).max() < 3.0
+
+
+def test_trained_profile_reads_the_head_turn():
+    """A profile trained on the digital performer's frames with their true curves and head rotations reads
+    yaw and pitch off the crop (:mod:`~facepuppet.capture.color.head_turn`) on frames it was not trained on,
+    and the roll still comes from the face frame."""
+    from facepuppet.capture.color.train import train_profile
+    from facepuppet.capture.pose import HeadPose, default_camera
+    from facepuppet.demo.performer import head_pose, performer_curves, render_performer
+    from facepuppet.demo.script import KEY_NAMES
+
+    size = (320, 320)
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 4.0 * np.pi, 120)
+    motion = np.zeros((len(t), 6))
+    motion[:, 0] = np.radians(12.0) * np.sin(t)                # yaw
+    motion[:, 1] = np.radians(8.0) * np.sin(0.7 * t + 1.0)     # pitch
+    motion[:, 2] = np.radians(5.0) * np.sin(0.5 * t)           # roll
+    weights = np.clip(rng.normal(0.0, 0.25, size=(len(t), len(KEY_NAMES))), 0.0, 1.0)
+    frames = [render_performer(w, m, size) for w, m in zip(weights, motion, strict=True)]
+    train = np.arange(0, len(t), 2)
+    profile = train_profile([frames[k] for k in train],
+                            np.stack([performer_curves(weights[k], motion[k], size) for k in train]),
+                            rotations=np.stack([head_pose(motion[k], size).rotation for k in train]))
+    assert profile.head
+    tracker = ColorTracker(profile)
+    K = default_camera(size)
+    got, true = [], []
+    for i in range(1, len(t), 2):
+        f = tracker.track(frames[i], 66 * i)
+        assert f.valid
+        got.append(HeadPose(f.rotation, f.translation, K).angles())
+        true.append(head_pose(motion[i], size).angles())
+    got, true = np.degrees(got), np.degrees(true)
+    r = [np.corrcoef(got[:, k], true[:, k])[0, 1] for k in range(3)]
+    mae = np.abs(got - true).mean(axis=0)
+    # Measured: r 0.99 / 0.98 / 0.97 and MAE 1.3 / 1.0 / 0.8 degrees (yaw / pitch / roll).
+    assert min(r) > 0.95, r
+    assert mae.max() < 1.6, mae

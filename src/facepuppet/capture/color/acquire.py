@@ -18,6 +18,7 @@ import cv2
 import numpy as np
 
 from facepuppet.capture.color.config import ColorTrackerConfig
+from facepuppet.capture.color.detect import face_boxes, frames_of_boxes, inside_box
 from facepuppet.capture.color.eye_anchors import (
     calibrated_anchors,
     eye_centres,
@@ -25,7 +26,14 @@ from facepuppet.capture.color.eye_anchors import (
     landmark_curves,
     shared_landmarker,
 )
-from facepuppet.capture.color.face import FaceFrame, find_face, light_balance, same_frame, similarity_from_points
+from facepuppet.capture.color.face import (
+    FaceFrame,
+    find_face,
+    light_balance,
+    same_frame,
+    similarity_from_points,
+    skin_probability,
+)
 from facepuppet.capture.color.likeness import FaceTemplate
 from facepuppet.capture.color.measure import Measurement, Placement
 from facepuppet.capture.color.profile import Profile
@@ -49,6 +57,7 @@ REFINE_STEPS = 3                        # steps         eye-search steps pulling
 SAME_FACE = (0.25, 0.2)                 # face units, log size: the landmark backend's face is the one acquired
 ANCHOR_STEPS = 4                        # steps         most eye searches to find the eye blobs' fixed point
 ANCHOR_TOLERANCE = 0.25                 # crop pixels   step below which the fixed point is found
+WINDOW_SKIN = 0.3                       # fraction      of a cascade window's middle that must look like skin
 #: The eyes' correction of a frame that keeps it as it is (a, b, tx, ty).
 NO_CORRECTION = (1.0, 0.0, 0.0, 0.0)
 
@@ -87,6 +96,17 @@ def mouth_offset(curves: np.ndarray, frame: FaceFrame, layout: np.ndarray, px: f
         @ np.linalg.inv(M[:, :2]).T
     drawn = np.concatenate([bezier_points(c, MOUTH_SAMPLES) for c in np.asarray(layout)[_LIPS]]).mean(axis=0)
     return np.clip(seen - drawn, -MOUTH_OFFSET_LIMIT, MOUTH_OFFSET_LIMIT) * px
+
+
+def _skin_share(rgb: np.ndarray, box: np.ndarray, skin) -> float:
+    """Share of the middle half (each way) of a window (x, y, w, h) the skin model takes for skin."""
+    x, y, w, h = (float(v) for v in box)
+    H, W = rgb.shape[:2]
+    x0, x1 = int(max(0, x + 0.25 * w)), int(min(W, x + 0.75 * w))
+    y0, y1 = int(max(0, y + 0.25 * h)), int(min(H, y + 0.75 * h))
+    if x1 <= x0 or y1 <= y0:
+        return 0.0
+    return float((skin_probability(np.ascontiguousarray(rgb[y0:y1, x0:x1]), skin) > 0).mean())
 
 
 class Measurer(Protocol):
@@ -144,18 +164,36 @@ class Acquirer:
         # the hypothesis that looks most like a face is kept: the crops are evened out the same way until the
         # face is lost.
         best, light, seen = None, None, []
-        hypotheses = [(None, None), (light_balance(rgb), None)]
+        # Windows with a face's pattern of dark features: candidates of their own, and the support a candidate
+        # needs in a scene the skin model cannot tell from skin.
+        # Only where the skin model finds some skin region (skin-coloured scenes included): without any, the
+        # landmark backend places the face as before.
+        skin = self.tracker.profile.skin
+        hypotheses = []
+        for M in (None, light_balance(rgb)):
+            frame = find_face(rgb if M is None else cv2.transform(rgb, M), skin)
+            if frame is not None:
+                hypotheses.append((M, frame))
+        # (A landmark model given explicitly places faces the skin model misses; the cascade serves the tracker
+        # standing alone.)
+        use = cfg.acquire.cascade and hypotheses and cfg.landmarks.model is None
+        boxes = face_boxes(rgb) if use else np.zeros((0, 4))
+        boxes = np.array([b for b in boxes if _skin_share(rgb, b, skin) >= WINDOW_SKIN]).reshape(-1, 4)
+        hypotheses += [(None, f) for f in frames_of_boxes(boxes)]
         if last is not None:
             hypotheses.insert(0, (last_light, last))
+
+        def value(result: Measurement) -> float:
+            lost = len(boxes) and not inside_box(result.frame, boxes)
+            return likeness(result, last, cost) - (cfg.acquire.unsupported_cost if lost else 0.0)
+
         for M, frame in hypotheses:
-            if frame is None:
-                frame = find_face(rgb if M is None else cv2.transform(rgb, M), self.tracker.profile.skin)
-            if frame is None or frame.unit < MIN_UNIT or any(same_frame(frame, f) for f in seen):
+            if frame.unit < MIN_UNIT or any(same_frame(frame, f) for f in seen):
                 continue
             seen.append(frame)
             place.light = M
             got = self.refine(rgb, candidate_frames(frame), last)
-            if got is not None and (best is None or likeness(got, last, cost) > likeness(best, last, cost)):
+            if got is not None and (best is None or value(got) > value(best)):
                 best, light = got, M
         place.light = (light if light is None or best is None
                        else fit_light(rgb, best.frame, light, cfg.measure.px, self.tracker.crop_size))

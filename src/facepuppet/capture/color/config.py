@@ -92,11 +92,18 @@ class AcquireConfig:
         When the face was just lost, candidates for finding it again are compared by their likeness to a face
         minus this times the absolute log ratio of their size to the lost frame's: a face does not change size
         between two frames, a frame over the whole head or over one eye may look like a face too.
+    cascade : bool
+        Also take candidates from the windows where OpenCV's face cascade finds a face's pattern of dark
+        features (:mod:`~facepuppet.capture.color.detect`), so a skin-coloured scene is not taken for the face.
+    unsupported_cost : float
+        Where the cascade found faces, a candidate outside all their windows has its likeness lowered by this.
     """
 
     min_score: float = 0.15
     min_skinless_score: float = 0.3
     resize_cost: float = 0.3
+    cascade: bool = True
+    unsupported_cost: float = 0.15
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -100,6 +100,9 @@ class Profile:
     shapes : dict of str -> dict of str -> ndarray
         Per family (``"lips"``, ``"brow_left"``, ``"brow_right"``) the arrays of its shape model (see
         :mod:`facepuppet.capture.color.shape_models`); empty for none (the rules alone).
+    head : dict of str -> ndarray
+        The head-turn model's arrays (yaw and pitch from the look of the crop, see
+        :mod:`facepuppet.capture.color.head_turn`); empty for none (the pose is solved upright).
     name : str
     mouth_reach : float
         Farthest the mouth corners move from the layout's, face units (:data:`GENERIC_MOUTH_REACH` unless
@@ -114,6 +117,7 @@ class Profile:
     net: dict = field(default_factory=dict)
     lids: dict = field(default_factory=dict)
     shapes: dict = field(default_factory=dict)
+    head: dict = field(default_factory=dict)
     name: str = "generic"
     mouth_reach: float = GENERIC_MOUTH_REACH
 
@@ -144,6 +148,8 @@ def save_profile(path: str | os.PathLike, profile: Profile) -> None:
     for family, model in profile.shapes.items():
         for k, v in model.items():
             arrays[f"shapes_{family}_{k}"] = np.asarray(v, dtype=np.float64)
+    for k, v in profile.head.items():
+        arrays[f"head_{k}"] = np.asarray(v, dtype=np.float64)
     with atomic_path(path) as tmp:
         with open(tmp, "wb") as fh:
             np.savez(fh, **arrays)
@@ -166,6 +172,19 @@ def _shapes(data: dict, path) -> dict:
                 or intercept.shape != (n_out,)):
             raise FacepuppetError(f"{path}: the profile's {family!r} shape model is damaged or of another kind")
     return out
+
+
+def _head(data: dict, path) -> dict:
+    """The head-turn model of a profile file's ``head_<array>`` keys (empty if none), checked."""
+    from facepuppet.capture.color.head_turn import check_turn_model
+
+    head = {k[5:]: v for k, v in data.items() if k.startswith("head_")}
+    if not head:
+        return {}
+    try:
+        return check_turn_model(head, str(path))
+    except ValueError as e:
+        raise FacepuppetError(str(e)) from e
 
 
 def load_profile(path: str | os.PathLike) -> Profile:
@@ -204,6 +223,7 @@ def load_profile(path: str | os.PathLike) -> Profile:
             net={k[4:]: v for k, v in data.items() if k.startswith("net_")},
             lids={k[5:]: v for k, v in data.items() if k.startswith("lids_")},
             shapes=_shapes(data, path),
+            head=_head(data, path),
             name=str(data["name"]),
             # a profile file without a learned reach has the generic one
             mouth_reach=float(data.get("mouth_reach", GENERIC_MOUTH_REACH)),

@@ -6,7 +6,8 @@ is first aligned on the acquisition's, :mod:`.follow`); Eq. 1 and the contrast C
 (:mod:`.transform`); a blob is grown in each feature's rectangle and the layout's curves moved onto it
 (:mod:`.rules`); the lips are refined as snakes (Eqs. 2-4, :mod:`.snakes`) against the head's up-vector; the eye
 blobs re-align the face frame for the next frame; the curves are smoothed (:mod:`.smoothing`) and the head pose
-comes from the stable curve ends.
+comes from the stable curve ends (roll and position) and, with a trained profile, the look of the crop (yaw and
+pitch, :mod:`.head_turn`).
 
 Conventions: RGB uint8 frames; curves in image pixels (x right, y down); left and right are the performer's.
 """
@@ -25,6 +26,7 @@ from facepuppet.capture.color.config import ColorTrackerConfig
 from facepuppet.capture.color.eye_anchors import eye_centres
 from facepuppet.capture.color.face import CROP_EXTENT, FEATURE_BOXES, FaceFrame, box_in_crop, similarity_of_pairs
 from facepuppet.capture.color.follow import Follower
+from facepuppet.capture.color.head_turn import apply_turn_model
 from facepuppet.capture.color.jobs import wait_pending
 from facepuppet.capture.color.lids import PATCH_SIZE, apply_lid_model
 from facepuppet.capture.color.likeness import FaceTemplate
@@ -37,7 +39,15 @@ from facepuppet.capture.color.snakes import LOWER, UPPER, SnakeSolver, snake_fie
 from facepuppet.capture.color.transform import feature_intensity, lip_hue_table, skin_fraction
 from facepuppet.capture.curves import CURVE_NAMES, POINT_NAMES
 from facepuppet.capture.features import FrameFeatures
-from facepuppet.capture.pose import STABLE_FEATURES, estimate_pose, points_in_head, pose_point_index
+from facepuppet.capture.pose import (
+    FRONTAL_ROTATION,
+    STABLE_FEATURES,
+    HeadPose,
+    estimate_pose,
+    points_in_head,
+    pose_point_index,
+)
+from facepuppet.filters import OneEuro, OneEuroConfig
 
 __all__ = ["ColorTrackerConfig", "ColorTracker", "Measurement", "WARMUP_PARTS"]
 
@@ -63,6 +73,10 @@ _EYE2 = np.eye(2)
 _CROP_ORIGIN = np.asarray(CROP_EXTENT[:2], dtype=float)
 _CHEEK_L, _CHEEK_R = BOX_NAMES.index("cheek_left"), BOX_NAMES.index("cheek_right")
 _EYE_L, _EYE_R = BOX_NAMES.index("eye_left"), BOX_NAMES.index("eye_right")
+#: Two layout points (curve, control point) the placement of the layout is read back from: the outer eye corners.
+_PLACED_PAIR = ((_IDX["eye_right_upper"], 3), (_IDX["eye_left_upper"], 3))
+#: The filter of the head-turn model's yaw and pitch (radians).
+TURN_FILTER = OneEuroConfig(min_cutoff=1.0, beta=2.0)
 
 #: Curves refined as snakes, with the side their feature lies on (Fig. 3).
 _SNAKE_CURVES = (("lip_upper_outer", UPPER),
@@ -84,6 +98,7 @@ class _Following:
     score: float | None = None              # smoothed likeness of the followed crop
     tracked: int = 0                        # frames tracked
     pose: object = None                     # the last head pose (the next solve starts there)
+    turn_ms: int | None = None              # time of the last head-turn reading
 
 
 @dataclass
@@ -163,6 +178,7 @@ class ColorTracker:
         self._smoother = CurveSmoother(config.filters, lids=bool(self._lids), shaped=np.concatenate(
             [FAMILIES[f] for f in sorted(self.profile.shapes)] or [np.zeros(0, int)]))
         self._acquirer = Acquirer(self, self._place, self._template, self._eye_window)
+        self._turn_filter = OneEuro(TURN_FILTER)
 
     # -- what other modules read -----------------------------------------------------------------------
     @property
@@ -234,7 +250,7 @@ class ColorTracker:
         if fol.tracked % cfg.check_every == 0:
             self._check_score()
         curves = self._smoother(curves, result.frame, timestamp_ms)
-        return self._features(curves, (w, h))
+        return self._features(curves, (w, h), self._turn(timestamp_ms))
 
     def close(self) -> None:
         """Let go of the landmark backend (shared by the process's trackers: it stays open until exit)."""
@@ -370,14 +386,36 @@ class ColorTracker:
             apply_shape_models(curves_px, crop, layout, self.profile.shapes)
         return curves_px
 
-    def _features(self, curves: np.ndarray, size: tuple[int, int]) -> FrameFeatures:
+    def _turn(self, timestamp_ms: int) -> np.ndarray | None:
+        """The head's (yaw, pitch) in radians read off the last crop by the profile's head-turn model
+        (:mod:`.head_turn`), filtered over time; None without a model."""
+        if not self.profile.head or self.seen is None:
+            return None
+        crop, _, placed = self.seen
+        (c0, k0), (c1, k1) = _PLACED_PAIR
+        S = similarity_of_pairs(self._layout_px[[c0, c1], [k0, k1]], placed[[c0, c1], [k0, k1]])
+        raw = apply_turn_model(self.profile.head, crop, S, self.config.measure.px)
+        fol = self._follow
+        if fol.turn_ms is None:
+            self._turn_filter.restart(raw)
+            turn = raw
+        else:
+            turn = self._turn_filter(raw, max(timestamp_ms - fol.turn_ms, 1) / 1000.0)
+        fol.turn_ms = timestamp_ms
+        return turn
+
+    def _features(self, curves: np.ndarray, size: tuple[int, int], turn: np.ndarray | None = None) -> FrameFeatures:
         # The stable landmarks are the layout's, placed by the face frame (a similarity): they show the head's
-        # roll, size and place but not a turn, so the pose is solved upright (estimate_pose, out_of_plane).
+        # roll, size and place but not a turn, so the pose is solved upright (estimate_pose, out_of_plane); the
+        # turn (yaw, pitch), where the profile's head-turn model reads it, is composed with that roll.
         uv = curves[_POSE_POINTS]
         pose = estimate_pose(uv, size, previous=self._follow.pose, out_of_plane=False)
         if not pose:
             pose = estimate_pose(uv, size, out_of_plane=False)
         self._follow.pose = pose if pose else None
+        if pose and turn is not None:
+            pose = HeadPose(FRONTAL_ROTATION @ _turned(float(turn[0]), float(turn[1]), float(pose.angles()[2])),
+                            pose.translation, pose.camera_matrix, pose.reprojection_error)
         if pose:
             points = points_in_head(curves, pose)
             return FrameFeatures(True, curves, pose.rotation, pose.translation, points)
@@ -411,7 +449,7 @@ class ColorTracker:
         """Find the face afresh (:meth:`~.acquire.Acquirer.find`), the filters and the alignment restarted."""
         fol = self._follow
         self._smoother.reset()
-        fol.pose = None
+        fol.pose = fol.turn_ms = None
         self._place.mouth_offset = np.zeros(2)
         fol.misses = 0
         self._follower.reset()
@@ -423,6 +461,15 @@ class ColorTracker:
         fol.unit_ref = best.frame.unit
         fol.score = None
         return best
+
+
+def _turned(yaw: float, pitch: float, roll: float) -> np.ndarray:
+    """``Ry(yaw) @ Rx(pitch) @ Rz(roll)`` (3, 3), the convention of :meth:`~facepuppet.capture.pose.HeadPose.angles`."""
+    cy, sy, cp, sp, cr, sr = np.cos(yaw), np.sin(yaw), np.cos(pitch), np.sin(pitch), np.cos(roll), np.sin(roll)
+    Ry = np.array([[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]])
+    Rx = np.array([[1.0, 0.0, 0.0], [0.0, cp, -sp], [0.0, sp, cp]])
+    Rz = np.array([[cr, -sr, 0.0], [sr, cr, 0.0], [0.0, 0.0, 1.0]])
+    return Ry @ Rx @ Rz
 
 
 def _layout_shift(layout: np.ndarray) -> dict[str, np.ndarray]:

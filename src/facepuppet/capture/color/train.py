@@ -16,8 +16,9 @@ from dataclasses import replace
 import cv2
 import numpy as np
 
+from facepuppet.capture.color import head_turn
 from facepuppet.capture.color.config import ColorTrackerConfig
-from facepuppet.capture.color.face import CROP_EXTENT, FaceFrame, SkinModel
+from facepuppet.capture.color.face import CROP_EXTENT, FaceFrame, SkinModel, similarity_of_pairs
 from facepuppet.capture.color.net import SUBAREAS, ColourNet, separating_weights, subarea_means
 from facepuppet.capture.color.profile import Profile, default_profile
 from facepuppet.capture.color.shape_models import FAMILIES, JITTER, fit_shape_model, training_pairs
@@ -151,7 +152,8 @@ def mouth_reach_of(layouts: np.ndarray, layout: np.ndarray, least: float) -> flo
 
 
 def train_profile(frames, curves, *, base: Profile | None = None, name: str = "performer", augment: int = 6,
-                  seed: int = 0, progress: bool = False, config: ColorTrackerConfig | None = None) -> Profile:
+                  seed: int = 0, progress: bool = False, config: ColorTrackerConfig | None = None,
+                  rotations: np.ndarray | None = None) -> Profile:
     """Learn a performer profile from labelled frames (§3.1).
 
     Parameters
@@ -172,6 +174,9 @@ def train_profile(frames, curves, *, base: Profile | None = None, name: str = "p
     config : ColorTrackerConfig, optional
         The options of the colour tracker run over the labelled frames (the eye anchors, the eyelid and shape
         models learn where it looks); give the ones it will track with.
+    rotations : (F, 3, 3) float, optional
+        The labels' head rotations (head to camera, :mod:`facepuppet.capture.pose`; NaN for none), the targets
+        of the head-turn model; default the full pose solved from the labelled curves' stable points.
 
     Returns
     -------
@@ -192,7 +197,9 @@ def train_profile(frames, curves, *, base: Profile | None = None, name: str = "p
     if len(keep) < 1:
         raise FacepuppetError("no labelled frame to calibrate the colour tracker on")
     rng = np.random.default_rng(seed)
-    layouts, crops, curves_px, feats, skins, labels = [], [], [], [], [], []
+    layouts, crops, curves_px, feats, skins, labels, turns = [], [], [], [], [], [], []
+    if rotations is not None and np.shape(rotations) != (len(curves), 3, 3):
+        raise ValueError(f"rotations must be ({len(curves)}, 3, 3), got shape {np.shape(rotations)}")
     for k in keep:
         rgb = np.asarray(frames[k])
         if rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.dtype != np.uint8:
@@ -207,6 +214,7 @@ def train_profile(frames, curves, *, base: Profile | None = None, name: str = "p
         if feat.sum() < MIN_MASK_PIXELS or skin.sum() < MIN_MASK_PIXELS:
             continue
         crops.append((rgb, frame))
+        turns.append(_label_turn(curves[k], rgb.shape, None if rotations is None else rotations[k]))
         labels.append(curves[k])
         curves_px.append(cpx)
         feats.append(feat)
@@ -255,6 +263,8 @@ def train_profile(frames, curves, *, base: Profile | None = None, name: str = "p
     tracker = ColorTracker(replace(profile, anchors=anchors), config=eyes_only)
     tracked = []
     pairs: dict[str, tuple[list, list]] = {family: ([], []) for family in FAMILIES}
+    turn_x, turn_y = [], []
+    (c0, k0), (c1, k1) = (_IDX["eye_right_upper"], 3), (_IDX["eye_left_upper"], 3)
     for i, (rgb, fr) in enumerate(crops):
         got = tracker.track(rgb, 100 * i)
         A = fr.crop_matrix(TRAIN_PX)
@@ -266,13 +276,34 @@ def train_profile(frames, curves, *, base: Profile | None = None, name: str = "p
                 x, y = training_pairs(crop, placed, seen_labels, family, rng)
                 xs += x
                 ys += y
+            if turns[i] is not None:
+                layout_px = tracker.layout_in_crop
+                S = similarity_of_pairs(layout_px[[c0, c1], [k0, k1]], placed[[c0, c1], [k0, k1]])
+                x, y = head_turn.training_pairs(crop, S, tracker.config.measure.px, turns[i], rng)
+                turn_x += x
+                turn_y += y
     lids = _lid_model(plain, curves_px, tracked, rng)
     shapes = {family: fit_shape_model(np.array(xs), np.array(ys)) for family, (xs, ys) in pairs.items()
               if len(xs) >= _MIN_SHAPE_PATCHES}
-    log.info("profile %s: %d frames (%d relit), lip hue %.0f deg, weights %s, eyelid model %s, shape models %s",
-             name, len(crops), len(crops) * augment, lip.centre, np.round(weights, 2), "yes" if lids else "no",
-             ", ".join(shapes) or "none")
-    return replace(profile, anchors=anchors, lids=lids, shapes=shapes)
+    head = (head_turn.fit_turn_model(np.array(turn_x), np.array(turn_y)) if len(turn_x) >= _MIN_SHAPE_PATCHES
+            else {})
+    log.info("profile %s: %d frames (%d relit), lip hue %.0f deg, weights %s, eyelid model %s, shape models %s, "
+             "head-turn model %s", name, len(crops), len(crops) * augment, lip.centre, np.round(weights, 2),
+             "yes" if lids else "no", ", ".join(shapes) or "none", "yes" if head else "no")
+    return replace(profile, anchors=anchors, lids=lids, shapes=shapes, head=head)
+
+
+def _label_turn(curves: np.ndarray, shape: tuple[int, ...], rotation: np.ndarray | None) -> np.ndarray | None:
+    """(yaw, pitch, roll) radians of a labelled frame: of ``rotation`` if given, else of the full pose solved
+    from the labelled curves' stable points with the generic face; None where there is none."""
+    from facepuppet.capture.pose import STABLE_FEATURES, HeadPose, camera_matrix, estimate_pose, pose_points_from_curves
+
+    K = camera_matrix(float(shape[1]), float(shape[0]), None)
+    if rotation is None:
+        pose = estimate_pose(pose_points_from_curves(curves, STABLE_FEATURES), (shape[1], shape[0]))
+        return pose.angles() if pose else None
+    R = np.asarray(rotation, dtype=float)
+    return HeadPose(R, np.zeros(3), K).angles() if np.isfinite(R).all() else None
 
 
 #: Fewest training patches (jittered copies included) for a shape model: fewer labelled frames than this
