@@ -121,9 +121,10 @@ def bare_tracker(clip: Path, opts) -> np.ndarray:
 
     with open_media(clip) as src:
         fps, frames = src.fps, list(src)
+    spare = make_tracker_for(opts, clip)          # loads the compiled kernels, as the live session's warm-up
+    spare.track(frames[0], 0)
+    spare.close()
     tracker = make_tracker_for(opts, clip)
-    if hasattr(tracker, "warmup"):
-        tracker.warmup()
     ms = []
     try:
         for k, rgb in enumerate(frames):
