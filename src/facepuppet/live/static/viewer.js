@@ -9,9 +9,10 @@ const hook = window.__facepuppet = {
 
 const $ = (id) => document.getElementById(id);
 const SKIN = [0.86, 0.72, 0.62];
+const RECENT = 60;   // frames whose curves are kept for their picture, which follows the frame's text
 const state = {
   mesh: null, gl: null, prog: null, influences: null, pending: null, head: null, lastIndex: -1,
-  dropped: 0, arrivals: [], latency: 0, valid: true, curves: null, curvesIndex: -1, size: null,
+  dropped: 0, arrivals: [], latency: 0, valid: true, curves: null, curvesIndex: -1, size: null, recent: new Map(),
   bars: [], ws: null,
 };
 
@@ -211,10 +212,12 @@ function drawPicture(bitmap, index) {
   }
   ctx.drawImage(bitmap, 0, 0);
   hook.pictures += 1;
-  if (!$("show-curves").checked || !state.curves || state.curvesIndex !== index || !state.size) return;
-  const s = bitmap.width / state.size[0];
+  // the picture follows its frame's text: draw the curves of the picture's own frame, kept by index
+  const own = state.recent.get(index);
+  if (!$("show-curves").checked || !own || !own.c || !own.size) return;
+  const s = bitmap.width / own.size[0];
   ctx.strokeStyle = "#40e0a0"; ctx.lineWidth = 2;
-  for (const c of state.curves) {
+  for (const c of own.c) {
     ctx.beginPath(); ctx.moveTo(c[0][0] * s, c[0][1] * s);
     ctx.bezierCurveTo(c[1][0] * s, c[1][1] * s, c[2][0] * s, c[2][1] * s, c[3][0] * s, c[3][1] * s);
     ctx.stroke();
@@ -228,6 +231,8 @@ function onMessage(event) {
     if (state.lastIndex >= 0 && msg.i > state.lastIndex + 1) state.dropped += msg.i - state.lastIndex - 1;
     state.lastIndex = msg.i; state.latency = msg.lat; state.valid = msg.v;
     state.curves = msg.c; state.curvesIndex = msg.i; state.size = msg.size;
+    state.recent.set(msg.i, { c: msg.c, size: msg.size });
+    for (const k of state.recent.keys()) if (k < msg.i - RECENT) state.recent.delete(k);
     state.arrivals.push(performance.now());
     state.pending = msg;
     status();
