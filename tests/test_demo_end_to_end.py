@@ -10,6 +10,7 @@ import pytest
 
 from conftest import need
 from facepuppet.cli import main
+from facepuppet.errors import FacepuppetError
 from gltf_validator import gltf_validator  # noqa: F401  (fixture)
 
 ERROR_BAR = 0.5
@@ -278,7 +279,7 @@ def test_interactive_calibration_with_a_video_for_camera(assets, face_landmarker
     assert result.frames["neutral"][0] >= 5 and result.frames[two.names[1]][0] >= 120
     assert shown and shown[0][1] > shown[0][0]                # camera frame beside the key-model's picture
 
-    with pytest.raises(Exception, match="cancelled"):
+    with pytest.raises(FacepuppetError, match="cancelled"):
         from_camera(f"camera:{clip}", two, config=cfg, keys=lambda k, p: ord("q") if k == 3 else -1)
-    with pytest.raises(Exception, match="stopped before"):
+    with pytest.raises(FacepuppetError, match="stopped before"):
         from_camera(f"camera:{clip}", two, config=cfg, keys=lambda k, p: -1)

@@ -72,7 +72,15 @@ def test_return_after_loss_does_not_jump():
     valid[5:30] = False                         # long gap: output reaches 0
     y = smooth(w, FPS, valid=valid)[:, 0]
     assert y[29] == pytest.approx(0.0)
-    assert y[30] < 0.8                          # resumes from neutral, smoothly
+    # resumes from neutral through the filter, standing still there: one One-Euro step from 0 towards 0.8
+    cfg, T = SmoothingConfig(), 1 / FPS
+
+    def alpha(fc):
+        return 1 / (1 + 1 / (2 * np.pi * fc) / T)
+
+    dx = alpha(cfg.d_cutoff) * 0.8 / T
+    step = alpha(cfg.min_cutoff + cfg.beta * abs(dx)) * 0.8
+    assert y[30] == pytest.approx(step, rel=1e-9) and 0.4 < step < 0.7      # no jump to 0.8
     assert np.all(np.diff(y[30:]) >= 0)
 
 

@@ -7,7 +7,6 @@ import pytest
 from facepuppet.capture.color.profile import default_profile, save_profile
 from facepuppet.capture.color.tracker import ColorTracker
 from facepuppet.capture.curves import CURVE_NAMES, POINT_NAMES, bezier_points
-from facepuppet.capture.features import Tracker
 
 _IDX = {n: i for i, n in enumerate(CURVE_NAMES)}
 MEASURED = [n for n in CURVE_NAMES if not n.startswith("nostril")]
@@ -54,8 +53,13 @@ def clip(assets, face_landmarker):
     return frames, np.stack([r.curves for r in ref])
 
 
-def test_is_a_tracker():
-    assert isinstance(ColorTracker(), Tracker)
+def test_a_face_free_frame_is_a_marked_frame():
+    t = ColorTracker()
+    f = t.track(np.full((120, 160, 3), 90, np.uint8), 0)
+    t.close()
+    assert t.name == "color" and not f.valid
+    assert f.curves.shape == (len(CURVE_NAMES), 4, 2) and np.isnan(f.curves).all()
+    assert f.points.shape == (len(POINT_NAMES), 3) and np.isnan(f.points).all()
 
 
 def test_tracks_a_real_clip_near_mediapipe(clip):
