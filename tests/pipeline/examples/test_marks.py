@@ -151,3 +151,18 @@ def test_capture_examples_needs_one_way(tmp_path):
     for kwargs in ({}, {"marks": tmp_path / "m.csv", "auto": True}):
         with pytest.raises(ValueError, match="either a marks file or auto=True"):
             capture_examples(tmp_path / "v.mp4", names=["jawOpen"], **kwargs)
+
+
+def test_frames_whose_head_pose_failed_are_left_out_of_an_expression(rng):
+    """A frame with a face but no feature points (its head pose was not solved) is not averaged in."""
+    from facepuppet.pipeline.examples.window import average_near
+
+    pts = np.tile(rng.normal(size=(1, P, 3)), (40, 1, 1))
+    track = make_track(pts)
+    track.points[18:23] = np.nan                       # valid, curves found, points NaN
+    got, span = average_near(track, "jawOpen", 20, ExamplesConfig())
+    assert np.isfinite(got).all() and not (18 <= span[0] < 23 or 18 < span[1] <= 23)
+    np.testing.assert_allclose(got, pts[0])
+    track.points[:] = np.nan
+    with pytest.raises(FacepuppetError, match="no face was tracked"):
+        average_near(track, "jawOpen", 20, ExamplesConfig())

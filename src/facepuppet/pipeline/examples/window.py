@@ -66,10 +66,11 @@ def average_near(track: Track, name: str, centre: int, config: ExamplesConfig,
         If no frame within reach has a face (``name`` says which key expression it was for).
     """
     radius = int(round(config.search * track.fps))
-    span = steadiest_window(track.points, track.valid, centre, radius, config.window)
+    usable = track.valid & np.isfinite(track.points).all(axis=(1, 2))    # a face whose head pose was solved
+    span = steadiest_window(track.points, usable, centre, radius, config.window)
     if span is None:
         lo, hi = max(0, centre - radius), min(track.n_frames, centre + radius + 1)
-        idx = np.flatnonzero(track.valid[lo:hi]) + lo
+        idx = np.flatnonzero(usable[lo:hi]) + lo
         if len(idx) == 0:
             raise FacepuppetError(f"{name} (frame {centre}): no face was tracked within {config.search:g} s "
                                   f"of it")
