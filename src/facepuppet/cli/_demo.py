@@ -97,17 +97,28 @@ def _remove_on_failure(folder: Path):
         raise
 
 
-def end_children() -> None:
-    """Terminate this process's child processes (the kernel precompile workers), by their process ids."""
+#: The module the demo's kernel-compiling worker processes run (``python -m ...``).
+WORKER_MODULE = "facepuppet.capture.color.precompile"
+
+
+def end_children(timeout: float = 5.0) -> None:
+    """Terminate the kernel precompile workers this process started (its children running
+    :data:`WORKER_MODULE`), by their process ids; other children (a caller's own) are left alone."""
     import signal
+    import time
 
     pids = []
     for task in Path(f"/proc/{os.getpid()}/task").glob("*/children"):
         with contextlib.suppress(OSError, ValueError):
             pids += [int(p) for p in task.read_text().split()]
+    ours = []
     for pid in pids:
         with contextlib.suppress(OSError):
-            os.kill(pid, signal.SIGTERM)
-    for pid in pids:
+            if WORKER_MODULE in Path(f"/proc/{pid}/cmdline").read_bytes().decode(errors="replace"):
+                os.kill(pid, signal.SIGTERM)
+                ours.append(pid)
+    deadline = time.monotonic() + timeout
+    for pid in ours:
         with contextlib.suppress(OSError):
-            os.waitpid(pid, 0)
+            while os.waitpid(pid, os.WNOHANG) == (0, 0) and time.monotonic() < deadline:
+                time.sleep(0.02)
