@@ -40,7 +40,7 @@ def test_the_imported_cv2_is_the_declared_distribution():
     """Asked in a fresh interpreter of this environment (other tests may hide or stub packages in this one)."""
     (name,) = declared_opencv()
     probe = ("import json, cv2, importlib.metadata as m; "
-             "print(json.dumps([cv2.__version__, m.version(%r), m.packages_distributions().get('cv2', [])]))" % name)
+             f"print(json.dumps([cv2.__version__, m.version({name!r}), m.packages_distributions().get('cv2', [])]))")
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr.strip().splitlines()[-1:]
     imported, version, owners = json.loads(done.stdout)
