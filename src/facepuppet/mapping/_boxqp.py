@@ -17,8 +17,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from facepuppet.mapping._spd import solve_spd
-
 __all__ = ["solve_box_qp"]
 
 _PDAS_STEPS = 12
@@ -46,7 +44,7 @@ def solve_box_qp(H: np.ndarray, B: np.ndarray, lo: np.ndarray, hi: np.ndarray,
     """
     batched = H.ndim == 3
     if batched:
-        w = solve_spd(H, B)  # unconstrained minimiser
+        w = np.linalg.solve(H, B[:, :, None])[:, :, 0]  # unconstrained minimiser
     else:
         w = B @ (np.linalg.inv(H) if H_inv is None else H_inv)  # (H symmetric)
     below, above = w < lo, w > hi
@@ -56,37 +54,28 @@ def solve_box_qp(H: np.ndarray, B: np.ndarray, lo: np.ndarray, hi: np.ndarray,
         H1 = H[0] if batched else H
         w1 = _pdas_one(H1, B[0], lo, hi, below[0], above[0])
         return (w1 if w1 is not None else _primal_active_set(H1, B[0], lo, hi))[None]
-    # Frames whose unconstrained minimiser is feasible are solved; iterate on the others only, and drop
-    # each frame from the iteration as soon as its active set settles.
-    todo = np.flatnonzero(below.any(1) | above.any(1))
-    Ht = H[todo] if batched else H
-    Bt, bt, at = B[todo], below[todo], above[todo]
     M = H.shape[-1]
     eye = np.eye(M, dtype=bool)
     # Scale of the dual/primal comparison in the active-set prediction (any c > 0 works; this one is unitless).
     c = np.diagonal(H, axis1=-2, axis2=-1)
-    c = c[todo] if batched else c
+    done = np.zeros(len(B), dtype=bool)
     for _ in range(_PDAS_STEPS):
-        fixed = bt | at
-        w_fix = np.where(bt, lo, np.where(at, hi, 0.0))
+        fixed = below | above
+        w_fix = np.where(below, lo, np.where(above, hi, 0.0))
         free = ~fixed
-        K = np.where(free[:, :, None] & free[:, None, :], Ht, eye)
-        rhs = np.where(free, Bt - _times(w_fix, Ht), w_fix)
-        wt = solve_spd(K, rhs)
-        wt = np.where(fixed, w_fix, wt)
-        lam = _times(wt, Ht) - Bt  # gradient; zero on the free set
+        K = np.where(free[:, :, None] & free[:, None, :], H, eye)
+        rhs = np.where(free, B - _times(w_fix, H), w_fix)
+        w = np.linalg.solve(K, rhs[:, :, None])[:, :, 0]
+        w = np.where(fixed, w_fix, w)
+        lam = _times(w, H) - B  # gradient; zero on the free set
         lam = np.where(free, 0.0, lam)
-        new_below = lam + c * (lo - wt) > 0
-        new_above = lam + c * (hi - wt) < 0
-        done = (new_below == bt).all(1) & (new_above == at).all(1)
-        w[todo[done]] = wt[done]
-        keep = ~done
-        if not keep.any():
+        new_below = lam + c * (lo - w) > 0
+        new_above = lam + c * (hi - w) < 0
+        done = (new_below == below).all(1) & (new_above == above).all(1)
+        below, above = new_below, new_above
+        if done.all():
             return w
-        todo, Bt, bt, at = todo[keep], Bt[keep], new_below[keep], new_above[keep]
-        if batched:
-            Ht, c = Ht[keep], c[keep]
-    for f in todo:
+    for f in np.flatnonzero(~done):
         w[f] = _primal_active_set(H[f] if batched else H, B[f], lo, hi)
     return w
 
