@@ -43,7 +43,7 @@ from facepuppet.arkit import LLF_NAMES
 from facepuppet.export.csv import LLF_HEAD_EYES, head_angles
 from facepuppet.live.frame import DEFAULT_HOST, LiveFrame
 from facepuppet.live.names import arkit_map
-from facepuppet.live.udp import UdpSocket
+from facepuppet.live.udp import UdpSender, UdpSocket
 
 __all__ = ["LiveLinkConfig", "LiveLinkSender", "encode_packet", "PACKET_FORMAT", "PACKET_VERSION",
            "DEFAULT_LIVELINK_PORT", "fps_fraction"]
@@ -108,7 +108,7 @@ def encode_packet(values: np.ndarray, *, time: float, config: LiveLinkConfig) ->
                        frame, position - frame, num, den, N_VALUES, *np.nan_to_num(values).tolist())
 
 
-class LiveLinkSender:
+class LiveLinkSender(UdpSender):
     """Sends each :class:`LiveFrame` as one Live Link Face packet to Unreal, without blocking.
 
     Parameters
@@ -148,16 +148,3 @@ class LiveLinkSender:
     def encode(self, frame: LiveFrame) -> bytes:
         """The packet of one frame."""
         return encode_packet(self.values(frame), time=frame.time, config=self.config)
-
-    def send(self, frame: LiveFrame) -> None:
-        """Send the frame's packet; returns at once (a packet the kernel will not take now is dropped)."""
-        self._socket.send(self.encode(frame))
-
-    @property
-    def dropped(self) -> int:
-        """Packets dropped so far."""
-        return self._socket.dropped
-
-    def close(self) -> None:
-        """Close the socket (idempotent)."""
-        self._socket.close()

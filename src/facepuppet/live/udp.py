@@ -8,8 +8,12 @@ from __future__ import annotations
 
 import logging
 import socket
+from typing import TYPE_CHECKING
 
-__all__ = ["UdpSocket"]
+if TYPE_CHECKING:
+    from facepuppet.live.frame import LiveFrame
+
+__all__ = ["UdpSender", "UdpSocket"]
 
 log = logging.getLogger(__name__)
 
@@ -66,3 +70,29 @@ class UdpSocket:
         if self._socket is not None:
             self._socket.close()
             self._socket = None
+
+
+class UdpSender:
+    """Base of the live senders: one frame becomes one datagram (``encode``) sent on a `UdpSocket`.
+
+    Subclasses set ``self._socket`` in their constructor and define ``encode(frame) -> bytes``.
+    """
+
+    _socket: UdpSocket
+
+    def encode(self, frame: LiveFrame) -> bytes:
+        """The datagram of one frame."""
+        raise NotImplementedError
+
+    def send(self, frame: LiveFrame) -> None:
+        """Send the frame's datagram; returns at once (a datagram the kernel will not take now is dropped)."""
+        self._socket.send(self.encode(frame))
+
+    @property
+    def dropped(self) -> int:
+        """Datagrams dropped so far."""
+        return self._socket.dropped
+
+    def close(self) -> None:
+        """Close the socket (idempotent)."""
+        self._socket.close()

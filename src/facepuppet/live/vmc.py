@@ -54,7 +54,7 @@ from facepuppet.arkit import ARKIT_NAMES, LLF_NAMES, arkit_name
 from facepuppet.live._optional import import_extra
 from facepuppet.live.frame import DEFAULT_HOST, LiveFrame
 from facepuppet.live.names import arkit_map
-from facepuppet.live.udp import UdpSocket
+from facepuppet.live.udp import UdpSender, UdpSocket
 
 __all__ = ["VmcConfig", "VmcSender", "unity_quaternion", "vmc_names", "DEFAULT_VMC_PORT"]
 
@@ -123,7 +123,7 @@ def vmc_names(names, spelling: str = "perfect_sync") -> tuple[tuple[str, ...], n
     return tuple(out), np.array(rows).reshape(len(out), len(names))
 
 
-class VmcSender:
+class VmcSender(UdpSender):
     """Sends each :class:`LiveFrame` as one VMC bundle to a UDP receiver, without blocking.
 
     Parameters
@@ -194,16 +194,3 @@ class VmcSender:
         for k, at in enumerate(offsets.tolist()):
             out[at: at + 4] = packed[4 * k: 4 * k + 4]
         return bytes(out)
-
-    def send(self, frame: LiveFrame) -> None:
-        """Send the frame's bundle; returns at once (a bundle the kernel will not take now is dropped)."""
-        self._socket.send(self.encode(frame))
-
-    @property
-    def dropped(self) -> int:
-        """Bundles dropped so far."""
-        return self._socket.dropped
-
-    def close(self) -> None:
-        """Close the socket (idempotent)."""
-        self._socket.close()
