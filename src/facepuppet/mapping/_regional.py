@@ -15,8 +15,9 @@ Guarantees: each region's solver reproduces the neutral face (w_k = 0) and each 
 so the neutral face maps to T_B and key expression i to T_i, except for the motion of key-model i in regions
 it does not move (below ``support_tol`` of its largest motion, by definition of not moving them).
 
-Per frame all regions are solved at once: one stacked product for the right-hand sides and one batched
-box-QP of R problems per frame.
+Per frame all regions are solved at once: one matrix product gives every region's right-hand side and
+parameters, another its weighted norm, and one compiled pass solves the R box QPs
+(:mod:`facepuppet.mapping._regional_kernel`; :meth:`RegionalSolver.reference` is the same in numpy).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ import numpy as np
 from facepuppet.errors import FacepuppetError
 from facepuppet.mapping._boxqp import solve_box_qp
 from facepuppet.mapping._params import STILL_SHARE
+from facepuppet.mapping._regional_kernel import solve_regions
 from facepuppet.mapping._regions import motion_regions, point_weights, region_support
 
 __all__ = ["RegionalSolver"]
@@ -51,6 +53,19 @@ class RegionalSolver:
         self._support_f = self.support.astype(float)
         # A_k = diag(ω_k) whiten: the region's view of the (scaled) displacement.
         self._A = None if whiten is None else omega[:, :, None] * whiten[None]
+        # The compiled path's layout: every region's d G_k and ||d_k||^2 from one product each.
+        R, N, M2 = G.shape
+        self._G_all = np.ascontiguousarray(G.transpose(1, 0, 2).reshape(N, R * M2))
+        self._omega2 = np.ascontiguousarray((omega**2).T)
+        self._A_all = None if self._A is None else np.ascontiguousarray(self._A.transpose(1, 0, 2).reshape(N, -1))
+        # Examples each region's solver kept: the others have a zero column in G and an identity row in H.
+        keep = (G[:, :, :M] != 0).any(axis=1) | (H != np.eye(M)[None]).any(axis=2) | (Hd != 0).any(axis=2)
+        self._n_kept = keep.sum(axis=1).astype(np.int64)
+        self._kept = np.zeros((R, M), dtype=np.int64)
+        for k in range(R):
+            self._kept[k, : self._n_kept[k]] = np.flatnonzero(keep[k])
+        self._H_c, self._Hd_c = np.ascontiguousarray(H, dtype=float), np.ascontiguousarray(Hd, dtype=float)
+        self(np.zeros((1, N)))  # loads the compiled kernel now (a fraction of a second), not on the first frame
 
     @property
     def F(self) -> np.ndarray:
@@ -112,7 +127,27 @@ class RegionalSolver:
         return solver
 
     def __call__(self, D: np.ndarray) -> np.ndarray:
-        """(F, N) displacement vectors (scaled, not whitened) -> (F, R, M) weights."""
+        """(F, N) displacement vectors (scaled, not whitened) -> (F, R, M) weights (compiled; module notes)."""
+        R, N, M2 = self.G.shape
+        D = np.ascontiguousarray(D, dtype=float)
+        F = len(D)
+        Z = (D @ self._G_all).reshape(F, R, M2)
+        if self._A_all is None:
+            norm2 = (D * D) @ self._omega2
+        else:
+            E = (D @ self._A_all).reshape(F, R, N)
+            norm2 = np.einsum("frn,frn->fr", E, E)
+        out = np.empty((F, R, M2 // 2))
+        status = np.empty((F, R), dtype=np.int64)
+        solve_regions(Z, np.ascontiguousarray(norm2), self._H_c, self._Hd_c, self._kept, self._n_kept, self.lo,
+                      self.hi, self.angle_ridge, self.noise_ridge, N, self._support_f, out, status)
+        hard = np.flatnonzero(status.any(axis=1))
+        if hard.size:  # unsettled or not positive definite: the numpy solver finishes those frames exactly
+            out[hard] = self.reference(D[hard])
+        return out
+
+    def reference(self, D: np.ndarray) -> np.ndarray:
+        """The same weights as :meth:`__call__` in plain numpy: stacked products, one batched box QP."""
         R, N, M2 = self.G.shape
         M = M2 // 2
         Z = np.einsum("fn,rnj->frj", D, self.G)
