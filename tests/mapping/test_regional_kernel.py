@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_regional import masks_for, two_patches
 
 from facepuppet import ExpressionMapper
 from facepuppet.mapping import _regional
 from facepuppet.mapping._boxqp import solve_box_qp
 from facepuppet.mapping._regional_kernel import solve_regions
-from test_regional import masks_for, two_patches
 
 
 def frames(sb, se, rng, n=80):
