@@ -17,7 +17,6 @@ from __future__ import annotations
 import math
 
 import numba as nb
-import numpy as np
 
 from facepuppet._util.jit import KERNEL
 
