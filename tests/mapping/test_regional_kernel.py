@@ -52,12 +52,12 @@ def test_kernel_solves_box_qps_exactly(rng):
     lo, hi = np.zeros(m), np.ones(m)
     out, status = np.empty((1, r, m)), np.empty((1, r), dtype=np.int64)
     kept = np.tile(np.arange(m), (r, 1))
-    solve_regions(Z, np.zeros((1, r)), H, np.zeros_like(H), kept, np.full(r, m), lo, hi, 0.0, 0.0, 20,
+    solve_regions(Z, np.zeros((1, r)), H, np.zeros_like(H), kept, np.full(r, m), lo, hi, 0.0, 0.0, np.full(r, 20.0),
                   np.ones((r, m)), out, status)
     assert (status == 0).all()
     np.testing.assert_allclose(out[0], solve_box_qp(H, b, lo, hi), atol=1e-12)
     H[2] -= 50 * np.eye(m)                                                   # not positive definite
-    solve_regions(Z, np.zeros((1, r)), H, np.zeros_like(H), kept, np.full(r, m), lo, hi, 0.0, 0.0, 20,
+    solve_regions(Z, np.zeros((1, r)), H, np.zeros_like(H), kept, np.full(r, m), lo, hi, 0.0, 0.0, np.full(r, 20.0),
                   np.ones((r, m)), out, status)
     assert status[0, 2] == 2 and (np.delete(status[0], 2) == 0).all()
 

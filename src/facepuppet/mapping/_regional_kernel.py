@@ -6,7 +6,7 @@ system only over the examples its solver kept (n_k <= M; the others have b = 0 a
 their weight is 0 and they decouple):
 
     K = H_k + angle_ridge * min(sin, 1) * Hd_k + noise_ridge * sigma^2 * I,
-    sin^2 = max(||d_k||^2 - ||p||^2, 0) / ||d_k||^2,   sigma^2 = max(||d_k||^2 - ||p||^2, 0) / max(N - M, 1)
+    sin^2 = max(||d_k||^2 - ||p||^2, 0) / ||d_k||^2,   sigma^2 = max(||d_k||^2 - ||p||^2, 0) / dof_k
 
 (the formulas of :class:`facepuppet.mapping._regional.RegionalSolver`), and minimises 1/2 w^T K w - b^T w over
 the box by the primal-dual active-set iteration of :mod:`facepuppet.mapping._boxqp` (same prediction rule,
@@ -116,7 +116,7 @@ def _box_qp(K, b, lo, hi, n, w, below, above, free, rhs, L, y, x, lam):
 
 
 @nb.njit(**KERNEL)
-def solve_regions(Z, norm2, H, Hd, kept, n_kept, lo, hi, angle_ridge, noise_ridge, n_coords, support, out,
+def solve_regions(Z, norm2, H, Hd, kept, n_kept, lo, hi, angle_ridge, noise_ridge, dof, support, out,
                   status):
     """Weights of every frame and region into ``out`` (F, R, M); ``status`` (F, R) 0 where solved here.
 
@@ -133,8 +133,8 @@ def solve_regions(Z, norm2, H, Hd, kept, n_kept, lo, hi, angle_ridge, noise_ridg
     n_kept : (R,) int64
     lo, hi : (M,) float64
     angle_ridge, noise_ridge : float
-    n_coords : int
-        N, the number of feature coordinates.
+    dof : (R,) float64
+        Each region's degrees of freedom of the residual, dof_k (``RegionalSolver``).
     support : (R, M) float64
         1 where key-model i may move region k, else 0 (the weight there is 0).
     out : (F, R, M) float64
@@ -150,7 +150,6 @@ def solve_regions(Z, norm2, H, Hd, kept, n_kept, lo, hi, angle_ridge, noise_ridg
     free = np.empty(M, dtype=np.int64)
     rhs, y, x, lam = np.empty(M), np.empty(M), np.empty(M), np.empty(M)
     L = np.empty((M, M))
-    dof = float(max(n_coords - M, 1))
     ridged = angle_ridge != 0.0 or noise_ridge != 0.0
     for f in range(F):
         for k in range(R):
@@ -167,7 +166,7 @@ def solve_regions(Z, norm2, H, Hd, kept, n_kept, lo, hi, angle_ridge, noise_ridg
                 out2 = max(nn - pp, 0.0)
                 sin = math.sqrt(out2 / (nn if nn > 0.0 else 1.0))
                 a_coef = angle_ridge * min(sin, 1.0)
-                c_coef = noise_ridge * (out2 / dof)
+                c_coef = noise_ridge * (out2 / dof[k])
             for a in range(n):
                 ia = kept[k, a]
                 b[a] = Z[f, k, ia]
