@@ -5,6 +5,9 @@ character <= 1 ms per frame; fit of 13 examples <= 50 ms (the regional mapping, 
 the mesh: <= 1 s). Uses the ICT-FaceKit model from ../shared/assets when present (or
 $FACEPUPPET_ASSETS), else a synthetic performer and character of the same sizes.
 
+The regional rows are followed by the regional solver's plain-numpy path (no budget), measured in the same
+run, and the largest difference of their weights.
+
     python benchmarks/bench_mapping.py [--frames 600] [--repeat 200]
 """
 
@@ -18,6 +21,9 @@ from pathlib import Path
 import numpy as np
 
 from facepuppet import ExpressionMapper
+from facepuppet.mapping._regional import RegionalSolver
+
+_INF = float("inf")
 
 ROOT = Path(__file__).resolve().parents[1]
 KEYS = (("jawOpen",), ("mouthSmile_L", "mouthSmile_R"), ("mouthPucker",), ("mouthFunnel",),
@@ -85,6 +91,7 @@ def main(argv: list[str] | None = None) -> int:
     rows.append(("fit, 13 examples (paper)", t_fit_p, "same", t_fit_ref, 50e-3))
 
     d_one = (x[0] - sb).reshape(-1)
+    D = (x - sb).reshape(F, -1)
     t_ref_one = per_call(lambda: np.linalg.lstsq(V.T, d_one, rcond=None), args.repeat)
     for method in ("adaptive", "regional", "bounded", "lsq", "paper"):
         m = ExpressionMapper.fit(sb, se, tb, te, method=method)
@@ -92,7 +99,6 @@ def main(argv: list[str] | None = None) -> int:
         rows.append((f"weights, 1 frame ({method})", t_one, "np.linalg.lstsq, 1 frame (unbounded)", t_ref_one,
                      100e-6))
     m = ExpressionMapper.fit(sb, se, tb, te)
-    D = (x - sb).reshape(F, -1)
     t_batch = per_call(lambda: m.weights(x), max(5, args.repeat // 20)) / F
     t_ref_batch = per_call(lambda: np.linalg.lstsq(V.T, D.T, rcond=None), max(5, args.repeat // 20)) / F
     rows.append((f"weights, per frame of {F} (default)", t_batch, f"np.linalg.lstsq, {F} rhs at once",
@@ -102,6 +108,15 @@ def main(argv: list[str] | None = None) -> int:
     t_batch_r = per_call(lambda: mr.weights(x), max(5, args.repeat // 20)) / F
     rows.append((f"weights, per frame of {F} (regional, {len(mr.region_names)} regions)", t_batch_r,
                  f"np.linalg.lstsq, {F} rhs at once", t_ref_batch, 100e-6))
+    # The regional solver's plain-numpy path (stacked products, one batched box QP), same weights.
+    plain = RegionalSolver.from_arrays({k[7:]: v for k, v in mr.to_arrays().items() if k.startswith("solver_")})
+    t_plain_one = per_call(lambda: plain.reference(D[:1]), args.repeat)
+    t_plain = per_call(lambda: plain.reference(D), max(5, args.repeat // 20)) / F
+    rows.append(("weights, 1 frame (regional, numpy path)", t_plain_one, "np.linalg.lstsq, 1 frame (unbounded)",
+                 t_ref_one, _INF))
+    rows.append((f"weights, per frame of {F} (regional, numpy path)", t_plain, f"np.linalg.lstsq, {F} rhs at once",
+                 t_ref_batch, _INF))
+    diff = float(np.abs(mr.weights(x) - plain.reference(D)).max())
     t_fit_r = per_call(lambda: ExpressionMapper.fit(sb, se, tb, te, method="regional"), 3)
     rows.append(("fit, 13 examples (regional)", t_fit_r, "SVD of V + copy of key-model offsets", t_fit_ref, 1.0))
     wr = mr.weights(x)
@@ -116,16 +131,20 @@ def main(argv: list[str] | None = None) -> int:
     t_syn_b_ref = per_call(lambda: tb + np.einsum("fi,ivk->fvk", w, dT), max(3, args.repeat // 50)) / F
     rows.append((f"synthesize, per frame of {F}", t_syn_b, "tb + einsum('fi,ivk->fvk')", t_syn_b_ref, 1e-3))
 
-    print(f"data: {source}; {M} examples, {sb.shape[0]} feature points, {len(tb)} vertices, {F} frames")
+    print(f"data: {source}; {M} examples, {sb.shape[0]} feature points, {len(tb)} vertices, {F} frames; "
+          f"load {os.getloadavg()[0]:.2f}")
+    print(f"regional weights, compiled against the numpy path: largest difference {diff:.2g}")
     print(f"{'figure':40s} {'facepuppet':>12s} {'reference':>12s} {'ratio':>7s} {'budget':>10s}  reference is")
     for name, t, ref_name, t_ref, budget in rows:
         ok = "ok" if t <= budget else "OVER"
-        print(f"{name:40s} {_fmt(t):>12s} {_fmt(t_ref):>12s} {t / t_ref:7.2f} {_fmt(budget):>7s} {ok:4s} "
+        print(f"{name:40s} {_fmt(t):>12s} {_fmt(t_ref):>12s} {t / t_ref:7.2f} {_fmt(budget):>10s} {ok:4s} "
               f"{ref_name}")
     return 0
 
 
 def _fmt(seconds: float) -> str:
+    if seconds == _INF:
+        return "-"
     return f"{seconds * 1e6:.1f} us" if seconds < 1e-3 else f"{seconds * 1e3:.2f} ms"
 
 

@@ -34,7 +34,8 @@ def add_mapping_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--model", metavar="TASK", help="MediaPipe face_landmarker.task "
                    "(default: $FACEPUPPET_FACE_LANDMARKER)")
     p.add_argument("--gain", action="append", metavar="G", default=[],
-                   help="expression gain: a number for all key-models, NAME=NUMBER for one (repeatable)")
+                   help="expression gain: a number for all key-models, NAME=NUMBER for one key-model or face "
+                        "region (mouth, brows; repeatable)")
     p.add_argument("--smoothing", default="on", metavar="on|off|K=V,...",
                    help="One-Euro smoothing: on (default), off, or e.g. min_cutoff=1.5,beta=2,hold=0.25,ease=0.3")
     p.add_argument("--no-head", action="store_true", help="do not animate the head rotation")

@@ -36,8 +36,9 @@ def register(sub) -> None:
                    help="realtime: frames as they come, late ones dropped (default); fast: every frame of a "
                         "file, as fast as it goes")
     p.add_argument("--max-frames", type=int, metavar="N", help="stop after N frames")
-    p.add_argument("--gain", action="append", metavar="G", help="expression gain: a number for all "
-                                                                "key-models, NAME=NUMBER for one (repeatable)")
+    p.add_argument("--gain", action="append", metavar="G",
+                   help="expression gain: a number for all key-models, NAME=NUMBER for one key-model or face "
+                        "region (mouth, brows; repeatable)")
     p.add_argument("--smoothing", default="on", metavar="on|off|K=V,...", help="One-Euro smoothing (as animate)")
     p.add_argument("--no-head", action="store_true", help="do not send or record the head rotation")
     p.add_argument("--no-status", action="store_true", help="no status line")

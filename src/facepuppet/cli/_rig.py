@@ -22,7 +22,8 @@ def register(subparsers) -> None:
                         "or a built-in character by name: toy")
     p.add_argument("-o", "--output", required=True, metavar="RIG.npz", help="rig file to write")
     p.add_argument("--method", default=None,
-                   help="mapping method by name (default: the most accurate); the one fitted is printed")
+                   help="mapping method by name (default: the most accurate; regional: weights per face region); "
+                        "the one fitted is printed")
     p.add_argument("--neutral", default=None, metavar="NAME",
                    help="OBJ folder: the neutral OBJ's file name (default neutral.obj)")
     p.add_argument("--mesh", default=None, metavar="NAME", help="glTF: read only this mesh")
@@ -61,6 +62,7 @@ def run(args: argparse.Namespace) -> int:
     save_rig(args.output, rig)
     v = len(character.neutral)
     print(f"rig: {len(pairing.names)} key expressions paired with key-models of {character.name!r} "
-          f"({v} vertices, {len(character.names)} key-models); method {rig.mapper.method}; "
-          f"wrote {args.output}")
+          f"({v} vertices, {len(character.names)} key-models); method {rig.mapper.method}"
+          + (f" ({len(rig.region_names)} regions: {', '.join(rig.region_names)})" if rig.regional else "")
+          + f"; wrote {args.output}")
     return 0

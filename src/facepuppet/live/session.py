@@ -251,6 +251,9 @@ def run_live(source: str | os.PathLike, rig, *, config: LiveConfig | None = None
         from facepuppet.pipeline.rig import load_rig
 
         rig, rig_label = load_rig(rig), str(rig)
+    if senders and getattr(rig, "regional", False):
+        raise FacepuppetError(f"{rig_label}: a regional rig's weights are per region and key-model, which the live "
+                              f"senders cannot carry; record it (--record, --csv) or rig without --method regional")
     mapper = FrameMapper(rig, smoothing=config.smoothing, gain=config.gain, rig_label=rig_label)
 
     def rezero() -> None:

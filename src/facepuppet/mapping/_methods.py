@@ -242,6 +242,7 @@ METHODS: dict[str, Method] = {
                      "unbounded least squares of the feature displacements (projection on the examples)"),
     "regional": Method(RegionalSolver, {"bounds": (0.0, 1.0), "ridge": 0.0, "angle_ridge": 0.2, "shrinkage": 0.7,
                                         "correct": None, "noise_ridge": 4.0, "n_regions": 12, "leak": 0.2,
+                                        "region_share": 1.0,
                                         "support_tol": 1e-3},
                        "adaptive per region: each region of the character (found from its key-models, or given) "
                        "gets its own weights from its own feature points (non-uniform blending)"),

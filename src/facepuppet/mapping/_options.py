@@ -55,6 +55,9 @@ class MapperOptions:
         ``regional``: most regions found from the key-models besides the background (12).
     leak : float in [0, 1], optional
         ``regional``: weight, in a region, of the feature points that belong to another region (0.2).
+    region_share : float in [0, 1], optional
+        ``regional``: share of a region's own weights in its final weights, the rest the global (background)
+        weights: w_k = support_k ⊙ ((1 − share) w_0 + share w_k^own) (1: each region's own solve).
     support_tol : float, optional
         ``regional``: a key-model moves a region when its masked motion there exceeds this share of its
         largest motion (1e-3); elsewhere its weight is 0.
@@ -79,6 +82,7 @@ class MapperOptions:
     nuisance_floor: float = 1e-4
     n_regions: int | None = None
     leak: float | None = None
+    region_share: float | None = None
     support_tol: float | None = None
     regions: object = None
     region_names: tuple[str, ...] | None = None
@@ -109,6 +113,7 @@ def resolve_options(opts: MapperOptions, m: int) -> dict:
     spec = METHODS[opts.method]
     out = dict(spec.defaults)
     for key in ("bounds", "ridge", "angle_ridge", "noise_ridge", "shrinkage", "correct", "n_regions", "leak",
+                "region_share",
                 "support_tol"):
         value = getattr(opts, key)
         if value is None:
@@ -126,8 +131,9 @@ def resolve_options(opts: MapperOptions, m: int) -> dict:
             raise ValueError(f"{key} must be a finite number >= 0, got {out[key]}")
     if "n_regions" in out and not (isinstance(out["n_regions"], (int, np.integer)) and out["n_regions"] >= 0):
         raise ValueError(f"n_regions must be an integer >= 0, got {out['n_regions']!r}")
-    if "leak" in out and not (0.0 <= float(out["leak"]) <= 1.0):
-        raise ValueError(f"leak must lie in [0, 1], got {out['leak']}")
+    for key in ("leak", "region_share"):
+        if key in out and not (0.0 <= float(out[key]) <= 1.0):
+            raise ValueError(f"{key} must lie in [0, 1], got {out[key]}")
     if "support_tol" in out and not (0.0 <= float(out["support_tol"]) < 1.0):
         raise ValueError(f"support_tol must lie in [0, 1), got {out['support_tol']}")
     if (opts.regions is not None or opts.region_names is not None) and "leak" not in out:

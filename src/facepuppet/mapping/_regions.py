@@ -25,7 +25,8 @@ import re
 import numpy as np
 from scipy.spatial import cKDTree
 
-__all__ = ["motion_regions", "region_name", "masks_from_influence", "point_weights", "region_support"]
+__all__ = ["motion_regions", "region_name", "masks_from_influence", "point_weights", "region_support",
+           "region_shares"]
 
 
 def _falloff(x: np.ndarray) -> np.ndarray:
@@ -112,6 +113,26 @@ def region_support(deltas: np.ndarray, masks: np.ndarray, tol: float) -> np.ndar
     regional = (masks[:, None, :] * motion[None]).max(axis=2)
     out = (regional > tol * peak[None]) & (peak[None] > 0)
     out[0] = True
+    return out
+
+
+def region_shares(deltas: np.ndarray, masks: np.ndarray) -> np.ndarray:
+    """(R, M) share of each key-model's squared displacement in each region.
+
+    share_ki = sum_v M_k(v) ||d_i(v)||^2 / sum_v ||d_i(v)||^2 (columns sum to 1 with masks summing to 1; a
+    key-model that moves nothing has all its share in the background).
+
+    Parameters
+    ----------
+    deltas : (M, V, 3) float
+        T_i - T_B.
+    masks : (R, V) float
+        Background first.
+    """
+    energy = np.einsum("mvc,mvc->mv", deltas, deltas)
+    total = energy.sum(axis=1)
+    out = np.asarray(masks, dtype=float) @ energy.T / np.where(total > 0, total, 1.0)[None]
+    out[0, total <= 0] = 1.0
     return out
 
 

@@ -73,12 +73,13 @@ class Animation:
 
     Attributes
     ----------
-    weights : (F, M) float
-        Final weights (smoothed, gain applied), one column per paired key-model (``names``).
-    raw : (F, M) float
+    weights : (F, C) float
+        Final weights (smoothed, gain applied), one column per channel (``names``).
+    raw : (F, C) float
         The mapper's weights before smoothing and gain; NaN on frames without a face.
-    names : tuple of M str
-        Paired key-model names (the rig's).
+    names : tuple of C str
+        The rig's channels (``Rig.channel_names``): its M paired key-model names, or for a regional rig the
+        R·M ``"<region>/<key-model>"``, region-major.
     fps : float
     track : Track or None
         What the tracker saw (None when :func:`animate` was told not to keep it).
@@ -321,9 +322,10 @@ class _Recorder:
 
             track = features_to_track(self.features, fps=fps, frame_size=frame_size, backend=backend or "",
                                       static_extras=static_extras)
-        m = len(rig.names)
+        names = tuple(getattr(rig, "channel_names", rig.names))
+        m = len(names)
         raw = self._rows(self.raw, m)
-        return Animation(self._rows(self.weights, m), raw, tuple(rig.names), float(fps), track,
+        return Animation(self._rows(self.weights, m), raw, names, float(fps), track,
                          valid_frames=np.isfinite(raw).all(axis=1))
 
 

@@ -77,7 +77,7 @@ def _stage(stack: contextlib.ExitStack, path: str | os.PathLike, suffix: str | N
 
 
 class _Rows:
-    """The spooled rows shared by the GLB and CSV outputs: time, valid, weights (M), rotation (9)."""
+    """The spooled rows shared by the GLB and CSV outputs: time, valid, weights (C channels), rotation (9)."""
 
     def __init__(self, n_weights: int, folder: Path, stack: contextlib.ExitStack) -> None:
         self.m = n_weights
@@ -95,6 +95,11 @@ class _Rows:
         return data[:, 0], data[:, 1] > 0.5, data[:, 2:2 + m], data[:, 2 + m:].reshape(-1, 3, 3)
 
 
+def _channels(rig) -> tuple[str, ...]:
+    """The rig's weight channels (``Rig.channel_names``; its key-model names for a rig without them)."""
+    return tuple(getattr(rig, "channel_names", rig.names))
+
+
 def _folder(path) -> Path:
     folder = Path(path).parent
     return folder if str(folder) else Path(".")
@@ -102,7 +107,8 @@ def _folder(path) -> Path:
 
 class GlbOutput:
     """The character with one animation of the stream's weights: its own scene whole when the rig keeps it
-    (``Character.source``), else the bare mesh with its key-models as morph targets.
+    (``Character.source``), else the bare mesh with its key-models as morph targets; for a regional rig the bare
+    mesh with the paired key-models split by region (``Rig.split_character``, R·M morph targets).
 
     Parameters
     ----------
@@ -123,7 +129,7 @@ class GlbOutput:
         check_suffix(path, "animated character")
         self.path, self.rig, self.head_rotation, self.fps = path, rig, head_rotation, float(fps)
         self._tmp = _stage(stack, path, suffix=Path(path).suffix.lower())
-        self._rows = _Rows(len(rig.names), _folder(path), stack)
+        self._rows = _Rows(len(_channels(rig)), _folder(path), stack)
 
     def write(self, frame: StreamFrame) -> None:
         self._rows.add(frame)
@@ -137,6 +143,10 @@ class GlbOutput:
         times = times - times[0] if len(times) else times
         rotation = rotation if self.head_rotation else None
         character = self.rig.character
+        if getattr(self.rig, "regional", False):  # the bare mesh, key-models split by region (R·M targets)
+            write_animated_glb(self._tmp, self.rig.split_character(), weights, self.fps, times=times,
+                               head_rotation=rotation)
+            return
         if character.source is not None:  # the character's own scene, whole, with the animation added
             from facepuppet.export.scene_animation import write_scene_animation
 
@@ -149,7 +159,8 @@ class GlbOutput:
 
 
 class CsvOutput:
-    """The stream's weights as CSV (Live Link Face layout for ARKit names; see :mod:`facepuppet.export.csv`).
+    """The stream's weights as CSV (Live Link Face layout for ARKit names; see :mod:`facepuppet.export.csv`); a
+    regional rig's R·M channels ``<region>/<key-model>`` in the plain layout (the regional GLB's morph weights).
 
     Parameters are those of :class:`GlbOutput`.
     """
@@ -159,7 +170,7 @@ class CsvOutput:
         check_suffix(path, "weights CSV")
         self.path, self.rig, self.head_rotation, self.fps = path, rig, head_rotation, float(fps)
         self._tmp = _stage(stack, path, suffix=".csv")
-        self._rows = _Rows(len(rig.names), _folder(path), stack)
+        self._rows = _Rows(len(_channels(rig)), _folder(path), stack)
 
     def write(self, frame: StreamFrame) -> None:
         self._rows.add(frame)
@@ -170,7 +181,8 @@ class CsvOutput:
         if self._rows.spool.rows == 0:
             raise FacepuppetError(f"{self.path}: no frames to write")
         times, _, weights, rotation = self._rows.read()
-        write_weights_csv(self._tmp, weights, self.rig.names, self.fps,
+        regional = getattr(self.rig, "regional", False)
+        write_weights_csv(self._tmp, weights, _channels(self.rig), self.fps, layout="plain" if regional else "auto",
                           times=times - times[0] if len(times) else times,
                           head_rotation=rotation if self.head_rotation else None)
 
@@ -204,6 +216,9 @@ class PreviewOutput:
         self._faces = character.faces
         self._neutral = np.asarray(character.neutral, dtype=float)
         self._deltas = character.targets[rig.target_indices] - self._neutral[None]
+        if getattr(rig, "regional", False):  # R·M split targets M_k ⊙ (T_i − T_B), as the GLB plays them
+            split = rig.split_character()
+            self._deltas = split.targets - self._neutral[None]
         self._pivot = (self._neutral.min(axis=0) + self._neutral.max(axis=0)) / 2
         self._camera = Camera.fit(self._neutral, (int(frame_height), int(frame_height)), margin=0.15)
         self._writer = None

@@ -27,6 +27,11 @@ The character is kept whole, so an exported GLB has all its morph targets; the m
 key-models named in ``names`` (:meth:`Rig.character_weights`) and the rest stay at zero. With
 ``character.source`` (a character read from glTF / VRM), the GLB written is that scene with one animation added
 (:mod:`facepuppet.export.scene_animation`); without it (OBJ characters, version 1 rigs), the bare mesh.
+
+A rig fitted with ``method="regional"`` (:attr:`Rig.regional`) maps a frame to weights w_ik per region k and
+key-model i; the animation carries them as R·M channels (:attr:`Rig.channel_names`, region-major), and its GLB
+is the bare mesh with the R·M morph targets M_k ⊙ (T_i − T_B) (:meth:`Rig.split_character`), which a player
+blends into T = T_B + Σ_k Σ_i M_k ⊙ w_ik (T_i − T_B). The file is the same; the mapper's arrays hold the masks.
 """
 
 from __future__ import annotations
@@ -51,7 +56,8 @@ RIG_FORMAT = "facepuppet-rig"
 RIG_VERSION = 2
 _MAPPER, _CHAR = "mapper.", "character."
 #: The fitted mapping's arrays that hold only finite numbers in a sound rig.
-_MAPPER_NUMBERS = ("source_base", "source_examples", "target_base", "target_deltas", "point_scale", "whiten")
+_MAPPER_NUMBERS = ("source_base", "source_examples", "target_base", "target_deltas", "point_scale", "whiten",
+                   "solver_masks", "solver_G", "solver_H", "solver_Hd", "solver_Fs", "solver_omega")
 
 
 @dataclass(frozen=True)
@@ -93,6 +99,35 @@ class Rig:
     def target_indices(self) -> np.ndarray:
         """(M,) index of each paired key-model in ``character.names``."""
         return np.array([self.character.names.index(n) for n in self.names], dtype=np.int64)
+
+    @property
+    def regional(self) -> bool:
+        """True when the mapper gives one row of weights per region (method ``regional``)."""
+        return bool(getattr(self.mapper, "regional", False))
+
+    @property
+    def region_names(self) -> tuple[str, ...]:
+        """The regional mapper's R region names (the background first); empty for a global rig."""
+        return tuple(str(r) for r in self.mapper.region_names) if self.regional else ()
+
+    @property
+    def channel_names(self) -> tuple[str, ...]:
+        """Names of the animation's weight channels: ``names`` (M), or for a regional rig
+        ``"<region>/<key-model>"`` region-major (R·M, channel k·M + i is w_ik)."""
+        if not self.regional:
+            return tuple(self.names)
+        return tuple(f"{r}/{n}" for r in self.region_names for n in self.names)
+
+    def split_character(self) -> Character:
+        """A regional rig's character as it plays: T_B with the R·M morph targets M_k ⊙ (T_i − T_B) of the
+        paired key-models, named and ordered as :attr:`channel_names`
+        (:func:`facepuppet.export.gltf_regional.split_character`)."""
+        from facepuppet.export.gltf_regional import split_character
+
+        c = self.character
+        paired = Character(c.neutral, np.asarray(c.targets)[self.target_indices], tuple(self.names), c.faces,
+                           c.name)
+        return split_character(paired, self.mapper.region_masks, self.region_names)
 
     def character_weights(self, weights: np.ndarray) -> np.ndarray:
         """Spread the mapper's weights (..., M) over all the character's key-models (..., K), zeros elsewhere."""
@@ -159,10 +194,6 @@ def fit_rig(performer: Performer, character: Character, *, method: str | None = 
     examples = np.stack([performer.examples[performer.names.index(n)] for n in pairing.names])
     targets = np.stack([character.targets[character.names.index(n)] for n in pairing.names])
     options: dict[str, Any] = {}
-    if method == "regional":
-        raise ValueError("--method regional: the animation pipeline plays one weight per key-model; the regional "
-                         "mapping is in the Python API (ExpressionMapper.fit(..., method='regional'), "
-                         "export.gltf_regional.write_regional_glb)")
     if method is not None:
         options["method"] = method
     params = inspect.signature(ExpressionMapper.fit).parameters

@@ -35,7 +35,7 @@ from facepuppet._util.interrupt import between_frames
 from facepuppet._util.interrupt import check as interrupt_check
 from facepuppet.capture.features import FrameFeatures
 from facepuppet.errors import FacepuppetError
-from facepuppet.pipeline.gain import GainConfig, gain_vector
+from facepuppet.pipeline.gain import GainConfig, rig_gain
 from facepuppet.pipeline.smoothing import OneEuroFilter, SmoothingConfig
 
 __all__ = ["CAMERA_TO_CHARACTER", "head_rotation_in_character", "SourceFrame", "StreamFrame", "FrameMapper",
@@ -92,10 +92,11 @@ class StreamFrame:
         As in :class:`SourceFrame`.
     features : FrameFeatures
         What the tracker saw.
-    raw : (M,) float
+    raw : (C,) float
         The mapper's weights before smoothing and gain; NaN when no face was tracked.
-    weights : (M,) float
-        Final weights (smoothed, gain applied), one per paired key-model of the rig.
+    weights : (C,) float
+        Final weights (smoothed, gain applied), one per channel of the rig: its M paired key-models, or the
+        R·M (region, key-model) pairs of a regional rig (``Rig.channel_names``).
     rotation : (3, 3) float
         Head rotation in the character's frame; a lost frame keeps the last tracked one (the rest pose before
         the first).
@@ -122,7 +123,8 @@ class FrameMapper:
     Parameters
     ----------
     rig : facepuppet.pipeline.rig.Rig
-        Its ``mapper`` maps (P, D) points to (M,) weights; its ``names`` name the M key-models.
+        Its ``mapper`` maps (P, D) points to (M,) weights (names: the rig's ``names``), or a regional one to
+        (R, M), flattened to R·M channels region-major (names: the rig's ``channel_names``).
     smoothing : SmoothingConfig, optional
     gain : GainConfig, optional
     rig_label : str
@@ -132,10 +134,10 @@ class FrameMapper:
     def __init__(self, rig, *, smoothing: SmoothingConfig | None = None, gain: GainConfig | None = None,
                  rig_label: str = "rig") -> None:
         self.rig = rig
-        self.names = tuple(rig.names)
+        self.names = tuple(getattr(rig, "channel_names", rig.names))
         self.rig_label = rig_label
         gain = gain or GainConfig()
-        self._gain = gain_vector(gain, self.names)
+        self._gain = rig_gain(gain, rig)
         self._low = gain.low
         self._high = None if gain.high is None else gain.high * np.maximum(1.0, self._gain)
         self._filter = OneEuroFilter(len(self.names), smoothing)
@@ -164,7 +166,7 @@ class FrameMapper:
         self._offset = None
 
     def step(self, features: FrameFeatures, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Map one frame: (raw (M,), weights (M,), rotation (3, 3)) at time ``t`` seconds."""
+        """Map one frame: (raw (C,), weights (C,), rotation (3, 3)) at time ``t`` seconds, C channels."""
         points = np.asarray(features.points, dtype=float)
         ok = bool(features.valid) and bool(np.isfinite(points).all())
         if ok and self._rezero_next:
@@ -173,7 +175,7 @@ class FrameMapper:
             if self._offset is not None:
                 points = points - self._offset
             try:
-                raw = np.asarray(self.rig.mapper.weights(points), dtype=float)
+                raw = np.asarray(self.rig.mapper.weights(points), dtype=float).reshape(-1)
             except ValueError as e:
                 raise FacepuppetError(f"{self.rig_label}: does not fit the track's feature points ({e})") from e
         else:

@@ -192,11 +192,14 @@ class WireDeformer:
         self._offset = np.ascontiguousarray((self.points[self.pair_point] - closest).T)
         self._tangent = np.ascontiguousarray(np.concatenate(tangent).reshape(-1, 3).T)
         self._influence = falloff(self.pair_distance / self.radii[self.pair_wire])
-        self._k64 = {"t": np.ascontiguousarray(self._t, dtype=np.float64),
-                     "closest": np.ascontiguousarray(self._closest, dtype=np.float64),
-                     "offset": np.ascontiguousarray(self._offset, dtype=np.float64),
-                     "tangent": np.ascontiguousarray(self._tangent, dtype=np.float64)}
-        self._influence64 = np.ascontiguousarray(self._influence, dtype=np.float64)
+        # The compiled pass's layout (``_kernels``): pairs sorted by point, one row of PAIR_COLUMNS each.
+        self._order = np.argsort(self.pair_point, kind="stable")
+        rows = np.column_stack([self._t, closest, self._offset.T, self._tangent.T])
+        self._rows64 = np.ascontiguousarray(rows[self._order], dtype=np.float64)
+        self._by_point = {"point": self.pair_point[self._order].astype(np.int64),
+                          "wire": self.pair_wire[self._order].astype(np.int64),
+                          "seg": self._seg[self._order].astype(np.int64)}
+        self._influence64 = np.ascontiguousarray(self._influence[self._order], dtype=np.float64)
         self.pair_point = self.pair_point.astype(np.int64)
         self.pair_wire = self.pair_wire.astype(np.int64)
         self._seg = self._seg.astype(np.int64)
@@ -340,11 +343,10 @@ class WireDeformer:
             if sv.shape != (self.n_wires,) or not np.isfinite(sv).all():
                 raise ValueError(f"scales must be a finite number or have shape ({self.n_wires},), "
                                  f"got {np.shape(scales)}")
-        f = self._influence64 if radii is None else self._pair_influence(radii).astype(np.float64)
+        f = self._influence64 if radii is None else self._pair_influence(radii)[self._order].astype(np.float64)
         out = np.empty_like(self.points)
-        k = self._k64
-        deform_pairs(self.points, self.pair_point, self.pair_wire, self._seg, k["t"], k["closest"], k["offset"],
-                     k["tangent"], f, radii is not None, np.ascontiguousarray(w_pts, dtype=np.float64),
-                     np.ascontiguousarray(w_tan, dtype=np.float64), np.ascontiguousarray(sv, dtype=np.float64),
-                     float(self.exponent), out)
+        b = self._by_point
+        deform_pairs(self.points, b["point"], b["wire"], b["seg"], self._rows64, f, radii is not None,
+                     np.ascontiguousarray(w_pts, dtype=np.float64), np.ascontiguousarray(w_tan, dtype=np.float64),
+                     np.ascontiguousarray(sv, dtype=np.float64), float(self.exponent), out)
         return out
