@@ -73,8 +73,8 @@ def test_weights_csv_same_bytes_at_every_chunk_size(tmp_path, rng, names):
 def test_quaternions_continue_the_hemisphere_of_the_chunk_before():
     rot = Rotation.from_euler("y", np.linspace(0, 3 * np.pi, 40)[:, None]).as_matrix()   # passes q -> -q twice
     whole = rotation_quaternions(rot)
-    first = rotation_quaternions(rot[:17])
-    rest = rotation_quaternions(rot[17:], previous=first[-1])
+    first = rotation_quaternions(rot[:25])
+    rest = rotation_quaternions(rot[25:], previous=first[-1])
     np.testing.assert_array_equal(np.concatenate([first, rest]), whole)
     assert (np.einsum("ij,ij->i", whole[1:], whole[:-1]) > 0).all()
 

@@ -38,7 +38,8 @@ def _header(f) -> tuple[tuple[int, ...], bool, np.dtype]:
     raise ValueError(f"unsupported .npy version {version}")
 
 
-def _read_member(zf: zipfile.ZipFile, info: zipfile.ZipInfo, name: str, budget: list[int]) -> np.ndarray:
+def _read_member(zf: zipfile.ZipFile, info: zipfile.ZipInfo, name: str, budget: list[int],
+                 limit: int) -> np.ndarray:
     with zf.open(info) as f:
         shape, fortran, dtype = _header(f)
         if dtype.hasobject:
@@ -46,23 +47,27 @@ def _read_member(zf: zipfile.ZipFile, info: zipfile.ZipInfo, name: str, budget: 
         if any(int(n) < 0 for n in shape):
             raise ValueError(f"member {name!r} has a negative shape {shape}")
         nbytes = math.prod(int(n) for n in shape) * dtype.itemsize
-        if nbytes > LIMITS["member_bytes"]:
+        if nbytes > limit:
             raise ValueError(f"member {name!r} claims {nbytes} bytes (shape {shape}), more than "
-                             f"{LIMITS['member_bytes']} this reader accepts")
+                             f"{limit} this reader accepts")
         if nbytes > info.file_size:
             raise ValueError(f"member {name!r} claims {nbytes} bytes but holds {info.file_size} (truncated)")
         budget[0] -= nbytes
         if budget[0] < 0:
             raise ValueError(f"the arrays add up to more than {LIMITS['total_bytes']} bytes")
-        data = f.read(nbytes)
-        if len(data) != nbytes:
-            raise ValueError(f"member {name!r} is truncated")
-        arr = np.frombuffer(data, dtype=dtype)
-        return (arr.reshape(shape[::-1]).T if fortran else arr.reshape(shape)).copy()
+        arr = np.empty(math.prod(int(n) for n in shape), dtype=dtype)
+        view = memoryview(arr).cast("B")
+        got = 0
+        while got < nbytes:                      # inflated straight into the array: one copy in memory
+            n = f.readinto(view[got:])
+            if not n:
+                raise ValueError(f"member {name!r} is truncated")
+            got += n
+        return arr.reshape(shape[::-1]).T.copy() if fortran else arr.reshape(shape)
 
 
 def read_npz(path: str | os.PathLike, what: str, *, known: Iterable[str] | None = None,
-             prefixes: Iterable[str] = ()) -> dict[str, np.ndarray]:
+             prefixes: Iterable[str] = (), member_bytes: int | None = None) -> dict[str, np.ndarray]:
     """The arrays of an ``.npz`` file the format knows, read with their headers checked first (no pickle).
 
     Parameters
@@ -74,6 +79,9 @@ def read_npz(path: str | os.PathLike, what: str, *, known: Iterable[str] | None 
         The member names the format has; others are skipped unread. None reads every member.
     prefixes : iterable of str
         Members whose names start with one of these are known too (``mapper.``, ``option_``).
+    member_bytes : int, optional
+        The format's own bound on one member's bytes, below ``LIMITS["member_bytes"]`` (a format of small
+        arrays refuses a big one before inflating it).
 
     Raises
     ------
@@ -83,6 +91,7 @@ def read_npz(path: str | os.PathLike, what: str, *, known: Iterable[str] | None 
     """
     known = None if known is None else set(known)
     prefixes = tuple(prefixes)
+    limit = LIMITS["member_bytes"] if member_bytes is None else min(int(member_bytes), LIMITS["member_bytes"])
     try:
         st = os.stat(path)
     except FileNotFoundError as e:
@@ -108,7 +117,7 @@ def read_npz(path: str | os.PathLike, what: str, *, known: Iterable[str] | None 
                     continue
                 if name in out:
                     raise ValueError(f"member {name!r} appears twice")
-                out[name] = _read_member(zf, info, name, budget)
+                out[name] = _read_member(zf, info, name, budget, limit)
             return out
     except MemoryError as e:
         raise FacepuppetError(f"{path}: cannot read {what} (out of memory)") from e
