@@ -7,7 +7,9 @@ another kind or of a newer version than this facepuppet reads is refused with a 
 A hostile archive is read as little as possible: only the members the format knows are opened (an unknown
 member is never inflated), and each member's ``.npy`` header (shape, dtype) is read first and checked against
 :data:`LIMITS` before its data is inflated, so a header claiming 10^12 values or a small file inflating to
-gigabytes is refused without allocating.
+gigabytes is refused without allocating. Members that hold text in every format (:func:`is_text_member`: names,
+formats, backends, hashes) must say so in their header and stay within ``LIMITS["text_bytes"]``, so a name
+list swapped for a huge numeric array is refused before it is inflated (or turned into strings one by one).
 """
 
 from __future__ import annotations
@@ -23,10 +25,19 @@ import numpy as np
 
 from facepuppet.errors import FacepuppetError
 
-__all__ = ["read_npz", "check_format", "LIMITS"]
+__all__ = ["read_npz", "check_format", "is_text_member", "LIMITS"]
 
-#: Sane bounds of one archive: bytes of one member's array, of all arrays together, members in the archive.
-LIMITS = {"member_bytes": 1 << 30, "total_bytes": 2 << 30, "members": 10_000}
+#: Sane bounds of one archive: bytes of one member's array, of all arrays together, members in the archive,
+#: bytes of one text member (names, format, backend, hashes).
+LIMITS = {"member_bytes": 1 << 30, "total_bytes": 2 << 30, "members": 10_000, "text_bytes": 16 << 20}
+#: Last parts (after a ``prefix.``) of member names that hold text in every facepuppet format.
+_TEXT_NAMES = frozenset({"format", "backend", "name", "method", "solver", "profile_hash", "media_hash"})
+
+
+def is_text_member(name: str) -> bool:
+    """Whether member ``name`` holds text in every facepuppet format (names, formats, backends, hashes)."""
+    last = name.rpartition(".")[2]
+    return last in _TEXT_NAMES or last.endswith("names")
 
 
 def _header(f) -> tuple[tuple[int, ...], bool, np.dtype]:
@@ -47,6 +58,10 @@ def _read_member(zf: zipfile.ZipFile, info: zipfile.ZipInfo, name: str, budget: 
         if any(int(n) < 0 for n in shape):
             raise ValueError(f"member {name!r} has a negative shape {shape}")
         nbytes = math.prod(int(n) for n in shape) * dtype.itemsize
+        if is_text_member(name):
+            if dtype.kind not in "US":
+                raise ValueError(f"member {name!r} must hold text, not {dtype}")
+            limit = min(limit, LIMITS["text_bytes"])
         if nbytes > limit:
             raise ValueError(f"member {name!r} claims {nbytes} bytes (shape {shape}), more than "
                              f"{limit} this reader accepts")
