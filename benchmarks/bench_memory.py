@@ -1,9 +1,11 @@
 """Peak memory of `facepuppet track` and `facepuppet animate` against the take's length.
 
 Long videos are made from the shared clips (their frames looped, written with OpenCV into a temporary folder),
-then each command runs in a child process and its peak resident memory is read from ``ru_maxrss`` of that
-child (``os.wait4``). The bar: the peak grows by at most 30 MB from the shortest to the longest take (memory
-flat in the take's length). `animate` tracks the video itself (no ``--track``) and writes GLB and CSV.
+then each command runs in a child process, which reports its own peak resident memory (``VmHWM`` of
+``/proc/self/status`` as it exits: the high-water mark of its own address space since ``exec``; the ``ru_maxrss``
+that ``wait4`` returns also counts the parent's pages, which the child shared until ``exec``). The bar: the
+peak grows by at most 30 MB from the shortest to the longest take (memory flat in the take's length).
+`animate` tracks the video itself (no ``--track``) and writes GLB and CSV.
 
 Usage::
 
@@ -77,14 +79,32 @@ def peak_mb(argv: list[str]) -> tuple[float, float]:
     """Run ``python -m facepuppet ARGV``; (peak resident memory in MB, seconds)."""
     env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
     t0 = time.perf_counter()
-    proc = subprocess.Popen([sys.executable, "-m", "facepuppet", *argv], env=env, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.PIPE)
-    _, status, usage = os.wait4(proc.pid, 0)
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    err = proc.stderr.read().decode(errors="replace").strip()
+    proc = subprocess.run([sys.executable, "-c", _CHILD, *argv], env=env, stdout=subprocess.DEVNULL,
+                          stderr=subprocess.PIPE, check=False)
+    err = proc.stderr.decode(errors="replace").strip()
     if proc.returncode != 0:
         raise SystemExit(f"facepuppet {' '.join(argv)} failed: {err}")
-    return usage.ru_maxrss / 1024.0, time.perf_counter() - t0
+    marks = [line for line in err.splitlines() if line.startswith(_MARK)]
+    if not marks:
+        raise SystemExit(f"facepuppet {' '.join(argv)}: no peak memory reported ({err})")
+    return float(marks[-1][len(_MARK):]) / 1024.0, time.perf_counter() - t0
+
+
+#: What the child prints last on stderr: its peak resident memory in kB.
+_MARK = "bench_memory VmHWM kB "
+#: The child: `python -m facepuppet ARGV`, then its own high-water mark (an atexit hook, so after the CLI exits).
+_CHILD = f"""
+import atexit, runpy, sys
+
+def _peak():
+    with open("/proc/self/status") as fh:
+        kb = next(line.split()[1] for line in fh if line.startswith("VmHWM:"))
+    sys.stderr.write("\\n{_MARK}" + kb + "\\n")
+
+atexit.register(_peak)
+sys.argv = ["facepuppet", *sys.argv[1:]]
+runpy.run_module("facepuppet", run_name="__main__", alter_sys=True)
+"""
 
 
 def main() -> None:

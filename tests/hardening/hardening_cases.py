@@ -114,8 +114,9 @@ def run_refused(capsys, argv, world: World, *, folders=(), names=(), code=None) 
 
 
 def run_subprocess(argv, *, timeout: float = TIMEOUT, **kwargs) -> subprocess.CompletedProcess:
-    """Run ``python -m facepuppet ARGV`` with the worktree's sources (bounded in time)."""
-    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
+    """Run ``python -m facepuppet ARGV`` with the worktree's sources (bounded in time; ``env`` replaces the
+    environment, the sources' ``PYTHONPATH`` added)."""
+    env = dict(kwargs.pop("env", None) or os.environ, PYTHONPATH=str(ROOT / "src"))
     kwargs.setdefault("stdout", subprocess.PIPE)
     return subprocess.run([sys.executable, "-m", "facepuppet", *map(str, argv)], stderr=subprocess.PIPE,
                           timeout=timeout, env=env, **kwargs)

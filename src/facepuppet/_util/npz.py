@@ -7,7 +7,9 @@ another kind or of a newer version than this facepuppet reads is refused with a 
 A hostile archive is read as little as possible: only the members the format knows are opened (an unknown
 member is never inflated), and each member's ``.npy`` header (shape, dtype) is read first and checked against
 :data:`LIMITS` before its data is inflated, so a header claiming 10^12 values or a small file inflating to
-gigabytes is refused without allocating.
+gigabytes is refused without allocating. Members that hold text in every format (:func:`is_text_member`: names,
+formats, backends, hashes) must say so in their header and stay within ``LIMITS["text_bytes"]``, so a name
+list swapped for a huge numeric array is refused before it is inflated (or turned into strings one by one).
 """
 
 from __future__ import annotations
@@ -23,10 +25,19 @@ import numpy as np
 
 from facepuppet.errors import FacepuppetError
 
-__all__ = ["read_npz", "check_format", "LIMITS"]
+__all__ = ["read_npz", "check_format", "is_text_member", "LIMITS"]
 
-#: Sane bounds of one archive: bytes of one member's array, of all arrays together, members in the archive.
-LIMITS = {"member_bytes": 1 << 30, "total_bytes": 2 << 30, "members": 10_000}
+#: Sane bounds of one archive: bytes of one member's array, of all arrays together, members in the archive,
+#: bytes of one text member (names, format, backend, hashes).
+LIMITS = {"member_bytes": 1 << 30, "total_bytes": 2 << 30, "members": 10_000, "text_bytes": 16 << 20}
+#: Last parts (after a ``prefix.``) of member names that hold text in every facepuppet format.
+_TEXT_NAMES = frozenset({"format", "backend", "name", "method", "solver", "profile_hash", "media_hash"})
+
+
+def is_text_member(name: str) -> bool:
+    """Whether member ``name`` holds text in every facepuppet format (names, formats, backends, hashes)."""
+    last = name.rpartition(".")[2]
+    return last in _TEXT_NAMES or last.endswith("names")
 
 
 def _header(f) -> tuple[tuple[int, ...], bool, np.dtype]:
@@ -38,7 +49,8 @@ def _header(f) -> tuple[tuple[int, ...], bool, np.dtype]:
     raise ValueError(f"unsupported .npy version {version}")
 
 
-def _read_member(zf: zipfile.ZipFile, info: zipfile.ZipInfo, name: str, budget: list[int]) -> np.ndarray:
+def _read_member(zf: zipfile.ZipFile, info: zipfile.ZipInfo, name: str, budget: list[int],
+                 limit: int) -> np.ndarray:
     with zf.open(info) as f:
         shape, fortran, dtype = _header(f)
         if dtype.hasobject:
@@ -46,23 +58,31 @@ def _read_member(zf: zipfile.ZipFile, info: zipfile.ZipInfo, name: str, budget: 
         if any(int(n) < 0 for n in shape):
             raise ValueError(f"member {name!r} has a negative shape {shape}")
         nbytes = math.prod(int(n) for n in shape) * dtype.itemsize
-        if nbytes > LIMITS["member_bytes"]:
+        if is_text_member(name):
+            if dtype.kind not in "US":
+                raise ValueError(f"member {name!r} must hold text, not {dtype}")
+            limit = min(limit, LIMITS["text_bytes"])
+        if nbytes > limit:
             raise ValueError(f"member {name!r} claims {nbytes} bytes (shape {shape}), more than "
-                             f"{LIMITS['member_bytes']} this reader accepts")
+                             f"{limit} this reader accepts")
         if nbytes > info.file_size:
             raise ValueError(f"member {name!r} claims {nbytes} bytes but holds {info.file_size} (truncated)")
         budget[0] -= nbytes
         if budget[0] < 0:
             raise ValueError(f"the arrays add up to more than {LIMITS['total_bytes']} bytes")
-        data = f.read(nbytes)
-        if len(data) != nbytes:
-            raise ValueError(f"member {name!r} is truncated")
-        arr = np.frombuffer(data, dtype=dtype)
-        return (arr.reshape(shape[::-1]).T if fortran else arr.reshape(shape)).copy()
+        arr = np.empty(math.prod(int(n) for n in shape), dtype=dtype)
+        view = memoryview(arr).cast("B")
+        got = 0
+        while got < nbytes:                      # inflated straight into the array: one copy in memory
+            n = f.readinto(view[got:])
+            if not n:
+                raise ValueError(f"member {name!r} is truncated")
+            got += n
+        return arr.reshape(shape[::-1]).T.copy() if fortran else arr.reshape(shape)
 
 
 def read_npz(path: str | os.PathLike, what: str, *, known: Iterable[str] | None = None,
-             prefixes: Iterable[str] = ()) -> dict[str, np.ndarray]:
+             prefixes: Iterable[str] = (), member_bytes: int | None = None) -> dict[str, np.ndarray]:
     """The arrays of an ``.npz`` file the format knows, read with their headers checked first (no pickle).
 
     Parameters
@@ -74,6 +94,9 @@ def read_npz(path: str | os.PathLike, what: str, *, known: Iterable[str] | None 
         The member names the format has; others are skipped unread. None reads every member.
     prefixes : iterable of str
         Members whose names start with one of these are known too (``mapper.``, ``option_``).
+    member_bytes : int, optional
+        The format's own bound on one member's bytes, below ``LIMITS["member_bytes"]`` (a format of small
+        arrays refuses a big one before inflating it).
 
     Raises
     ------
@@ -83,6 +106,7 @@ def read_npz(path: str | os.PathLike, what: str, *, known: Iterable[str] | None 
     """
     known = None if known is None else set(known)
     prefixes = tuple(prefixes)
+    limit = LIMITS["member_bytes"] if member_bytes is None else min(int(member_bytes), LIMITS["member_bytes"])
     try:
         st = os.stat(path)
     except FileNotFoundError as e:
@@ -108,7 +132,7 @@ def read_npz(path: str | os.PathLike, what: str, *, known: Iterable[str] | None 
                     continue
                 if name in out:
                     raise ValueError(f"member {name!r} appears twice")
-                out[name] = _read_member(zf, info, name, budget)
+                out[name] = _read_member(zf, info, name, budget, limit)
             return out
     except MemoryError as e:
         raise FacepuppetError(f"{path}: cannot read {what} (out of memory)") from e

@@ -109,6 +109,8 @@ def read_list(path: str | os.PathLike, rig: str | None = None) -> list[Job]:
         output name with a folder in it; for a list without a single clip.
     """
     path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"--list {path}: is a folder, not a list file")
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such list file")
     base = path.parent

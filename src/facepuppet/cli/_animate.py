@@ -61,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("nothing to write: give -o OUT.glb, --csv OUT.csv or --preview OUT.mp4")
     config = animate_config(args)
     anim = animate(args.media, args.rig, glb=args.output, csv=args.csv, preview=args.preview,
-                   track=args.track, config=config, keep_track=False)
+                   track=args.track, config=config, keep_track=False, keep_weights=False)
     n, ok = len(anim.valid), int(anim.valid.sum())
     t = anim.timings
     busy = t.get("track", 0.0) + t.get("map", 0.0) + t.get("write", 0.0)

@@ -48,6 +48,7 @@ def run(args: argparse.Namespace) -> int:
     if args.address and args.engine != "ray":
         raise ValueError("--address: only with --engine ray")
     jobs = read_list(args.list, args.rig) if args.list else jobs_from_clips(args.clips, args.rig)
+    check_jobs(jobs, args)
     config = BatchConfig(animate=animate_config(args), csv=args.csv, preview=args.preview, engine=args.engine,
                          workers=args.workers, address=args.address,
                          progress=False if args.no_progress else None)
@@ -57,3 +58,24 @@ def run(args: argparse.Namespace) -> int:
     print(f"batch: {len(summary.rows)} clips: {c['done']} done, {c['skipped']} skipped, {c['failed']} failed; "
           f"{summary.frames} frames in {summary.seconds:.1f} s ({fps:.0f} frames/s); report {summary.report}")
     return 1 if c["failed"] else 0
+
+
+def check_jobs(jobs, args: argparse.Namespace) -> None:
+    """Every job's clip, rig and outputs checked as any command's file arguments are
+    (:func:`facepuppet.cli._paths.check_paths`), together with the batch's own, before any work: an output
+    that is a clip, a rig, the list or another job's output is refused, as is a clip that is a FIFO."""
+    from facepuppet.batch import REPORT_NAME
+    from facepuppet.batch.jobs import output_paths
+    from facepuppet.cli._paths import check_paths
+
+    inputs = {"--list": args.list, "--rig": args.rig, "--profile": args.profile, "--model": args.model}
+    for job in jobs:
+        inputs[f"{job.source}: clip"] = job.clip
+        inputs[f"{job.source}: rig"] = job.rig
+    outputs: dict[str, str] = {}
+    if os.path.isdir(args.output):     # a folder still to make holds nothing an output could replace
+        outputs[f"-o {REPORT_NAME}"] = os.path.join(args.output, REPORT_NAME)
+        for job in jobs:
+            for kind, path in output_paths(args.output, job.name, csv=args.csv, preview=args.preview).items():
+                outputs[f"{job.source}: output {kind}"] = str(path)
+    check_paths(inputs, outputs)

@@ -108,8 +108,10 @@ def run(args: argparse.Namespace) -> int:
     track = None
     if args.track:
         from facepuppet.io.track import load_track
+        from facepuppet.pipeline.provenance import check_track_media
 
         track = load_track(args.track)
+        check_track_media(track, args.media)
     labels = None
     if args.train_profile:
         if not args.media or args.media.startswith(CAMERA_PREFIX):

@@ -9,7 +9,8 @@ refuses, with one line naming the argument and the path:
 - an input that is a FIFO, a socket or a device (reading one blocks or never ends), or a symbolic link to one,
   or an input folder holding one;
 - an output that exists and is not a regular file (a folder, a device node such as ``/dev/null``, a FIFO, a
-  symbolic link to any of these): the atomic rename would replace it;
+  symbolic link to any of these): the atomic rename would replace it; an output (file or folder) among the
+  system's special files (``/dev``, ``/proc``, ``/sys``, by name or through links; ``/dev/shm`` is ordinary);
 - an output whose folder is missing or not writable, or whose temporary name (``.NAME.XXXXXXXX.SUFFIX``,
   :func:`facepuppet._util.atomic.atomic_path`) would be longer than the file system allows;
 - an output that is the same file as an input or as another output: the same resolved path, or the same
@@ -34,8 +35,10 @@ __all__ = ["check_paths", "check_args", "describe", "TEMP_NAME_EXTRA"]
 #: Characters the temporary name adds to an output's name: "." + "." + 8 random characters + a suffix of up
 #: to 8 (``tempfile.mkstemp`` in ``atomic_path``).
 TEMP_NAME_EXTRA = 2 + 8 + 8
-#: Folders of special files: an output that is a symbolic link into one is refused whatever it points at.
+#: Folders of special files: an output in one (by its name or through symbolic links) is refused whatever it
+#: is; ``/dev/shm`` holds ordinary files.
 _SPECIAL_TREES = ("/dev/", "/proc/", "/sys/")
+_ORDINARY_IN_SPECIAL = ("/dev/shm/",)
 #: Media given as a device rather than a file.
 CAMERA_PREFIX = "camera:"
 
@@ -87,6 +90,20 @@ def _check_input(label: str, path: str) -> None:
         raise FacepuppetError(f"{label} {describe(path)}: is {kind}, not a file")
 
 
+def _special(path: str) -> bool:
+    """Whether absolute ``path`` is in (or is) one of the folders of special files."""
+    path = path.rstrip("/") + "/"
+    return path.startswith(_SPECIAL_TREES) and not path.startswith(_ORDINARY_IN_SPECIAL)
+
+
+def _check_not_special(label: str, path: str) -> None:
+    real = os.path.realpath(path)
+    if _special(os.path.abspath(path)) or _special(real):
+        where = "" if os.path.abspath(path) == real else f" (it leads to {describe(real)})"
+        raise FacepuppetError(f"{label} {describe(path)}: is among the system's special files{where}; "
+                              f"refusing to write there")
+
+
 def _check_output(label: str, path: str, *, folder_output: bool = False) -> None:
     p = Path(path)
     if os.path.lexists(path):
@@ -95,19 +112,21 @@ def _check_output(label: str, path: str, *, folder_output: bool = False) -> None
         except OSError:
             raise FacepuppetError(f"{label} {describe(path)}: a symbolic link to nothing; refusing to replace "
                                   f"it") from None
-        special = next((hop for hop in _link_chain(path) if hop.startswith(_SPECIAL_TREES)), None)
+        special = next((hop for hop in _link_chain(path) if _special(hop)), None)
         if special is not None:
             raise FacepuppetError(f"{label} {describe(path)}: a symbolic link to {describe(special)}; refusing "
                                   f"to replace it")
         if folder_output:
             if not stat.S_ISDIR(st.st_mode):
                 raise FacepuppetError(f"{label} {describe(path)}: exists and is not a folder")
+            _check_not_special(label, path)
             return
         if stat.S_ISDIR(st.st_mode):
             raise FacepuppetError(f"{label} {describe(path)}: is a folder, not a file name")
         if not stat.S_ISREG(st.st_mode):
             raise FacepuppetError(f"{label} {describe(path)}: is {_kind(st.st_mode) or 'not a regular file'}; "
                                   f"refusing to replace it")
+    _check_not_special(label, path)
     if folder_output:
         return
     folder = p.parent if str(p.parent) else Path(".")

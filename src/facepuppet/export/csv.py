@@ -32,6 +32,7 @@ import numpy as np
 
 from facepuppet._util.atomic import atomic_path
 from facepuppet.arkit import LLF_NAMES, arkit_parts, llf_name
+from facepuppet.export.take import TakeChunk, TakeRows
 
 __all__ = ["write_weights_csv", "LLF_BLENDSHAPES", "LLF_HEAD_EYES", "llf_timecode", "head_angles",
            "arkit_columns"]
@@ -73,7 +74,7 @@ def head_angles(rotation: np.ndarray) -> np.ndarray:
     return np.stack([yaw, pitch, roll], axis=1)
 
 
-def write_weights_csv(path: str | os.PathLike, weights: np.ndarray, names: Sequence[str], fps: float, *,
+def write_weights_csv(path: str | os.PathLike, weights: np.ndarray | TakeRows, names: Sequence[str], fps: float, *,
                       head_rotation: np.ndarray | None = None, valid: np.ndarray | None = None,
                       layout: str = "auto", start_time: float = 0.0, times: np.ndarray | None = None) -> str:
     """Write per-frame blend weights (and head rotation) as CSV, atomically.
@@ -82,8 +83,10 @@ def write_weights_csv(path: str | os.PathLike, weights: np.ndarray, names: Seque
     ----------
     path : str or PathLike
         Output .csv file.
-    weights : (F, M) float
-        Blend weights per frame, one column per key-model.
+    weights : (F, M) float, or TakeRows
+        Blend weights per frame, one column per key-model; or the whole take as
+        :class:`~facepuppet.export.take.TakeRows` (weights, times, head rotations and valid flags read chunk by
+        chunk: memory flat in the take's length; ``head_rotation``, ``valid`` and ``times`` are then not given).
     names : sequence of M str
         Key-model names.
     fps : float
@@ -105,42 +108,75 @@ def write_weights_csv(path: str | os.PathLike, weights: np.ndarray, names: Seque
     str
         The layout written, ``"arkit"`` or ``"plain"``.
     """
-    weights = np.asarray(weights, dtype=np.float64)
     names = [str(n) for n in names]
-    if weights.ndim != 2 or weights.shape[1] != len(names):
-        raise ValueError(f"weights must have shape (F, {len(names)}) to match names, got {weights.shape}")
-    f = len(weights)
+    if isinstance(weights, TakeRows):
+        if head_rotation is not None or valid is not None or times is not None:
+            raise ValueError("times, head rotations and valid flags of a TakeRows are its own")
+        rows = weights
+        if rows.width != len(names):
+            raise ValueError(f"weights must have shape (F, {len(names)}) to match names, got "
+                             f"({rows.frames}, {rows.width})")
+    else:
+        weights = np.asarray(weights, dtype=np.float64)
+        if weights.ndim != 2 or weights.shape[1] != len(names):
+            raise ValueError(f"weights must have shape (F, {len(names)}) to match names, got {weights.shape}")
+        rows = None
     if not (np.isfinite(fps) and fps > 0):
         raise ValueError(f"fps must be a positive number, got {fps}")
     if layout not in ("auto", "arkit", "plain"):
         raise ValueError(f"layout must be 'auto', 'arkit' or 'plain', got {layout!r}")
-    ok = np.ones(f, dtype=bool) if valid is None else np.asarray(valid, dtype=bool).copy()
-    if ok.shape != (f,):
-        raise ValueError(f"valid must have shape ({f},), got {ok.shape}")
-    ok &= np.all(np.isfinite(weights), axis=1)
-    angles = None
-    if head_rotation is not None:
-        rotation = np.asarray(head_rotation, dtype=np.float64)
-        if rotation.shape != (f, 3, 3):
-            raise ValueError(f"head_rotation must have shape ({f}, 3, 3), got {rotation.shape}")
-        angles = head_angles(rotation)
-        angles[~(ok & np.all(np.isfinite(angles), axis=1))] = 0.0
-    weights = np.where(ok[:, None], weights, 0.0)
+    if rows is None:
+        f = len(weights)
+        if valid is not None:
+            valid = np.asarray(valid, dtype=bool)
+            if valid.shape != (f,):
+                raise ValueError(f"valid must have shape ({f},), got {valid.shape}")
+        if head_rotation is not None:
+            head_rotation = np.asarray(head_rotation, dtype=np.float64)
+            if head_rotation.shape != (f, 3, 3):
+                raise ValueError(f"head_rotation must have shape ({f}, 3, 3), got {head_rotation.shape}")
+        times = np.arange(f) / fps if times is None else np.asarray(times, dtype=np.float64)
+        if times.shape != (f,) or not np.isfinite(times).all():
+            raise ValueError(f"times must be {f} finite seconds, got shape {times.shape}")
+        rows = TakeRows.from_arrays(weights, times, rotation=head_rotation, valid=valid)
     columns = [arkit_columns(n) for n in names]
     if layout == "auto":
         layout = "arkit" if names and sum(bool(c) for c in columns) * 2 >= len(names) else "plain"
-    if times is None:
-        times = np.arange(f) / fps
-    times = np.asarray(times, dtype=np.float64)
-    if times.shape != (f,) or not np.isfinite(times).all():
-        raise ValueError(f"times must be {f} finite seconds, got shape {times.shape}")
-    times = start_time + times
     if layout == "arkit":
         unmapped = [n for n, c in zip(names, columns, strict=True) if not c]
         if unmapped:
             warnings.warn(f"{path}: key-models with no ARKit name are left out of the Live Link Face CSV: "
                           f"{', '.join(unmapped)}", stacklevel=2)
         header = ["Timecode", "BlendShapeCount", *LLF_BLENDSHAPES, *LLF_HEAD_EYES]
+    else:
+        header = ["time", "valid", *names]
+        if rows.has_rotation:
+            header += ["head_yaw", "head_pitch", "head_roll"]
+    with atomic_path(path, suffix=".csv") as tmp:
+        with open(tmp, "w", newline="", encoding="utf-8") as fh:
+            writer = csv.writer(fh, lineterminator="\n")
+            writer.writerow(header)
+            for chunk in rows.read():
+                for first, row in _rows(chunk, columns, layout, float(start_time)):
+                    writer.writerow(first + [_number(x) for x in row.tolist()])
+    return layout
+
+
+def _rows(chunk: TakeChunk, columns: list, layout: str, start_time: float):
+    """(leading cells, values) of each row of one chunk, in the chosen layout (see the module notes)."""
+    weights = chunk.weights
+    f = len(weights)
+    ok = np.ones(f, dtype=bool) if chunk.valid is None else np.asarray(chunk.valid, dtype=bool).copy()
+    if ok.shape != (f,):
+        raise ValueError(f"valid must have shape ({f},), got {ok.shape}")
+    ok &= np.all(np.isfinite(weights), axis=1)
+    angles = None
+    if chunk.rotation is not None:
+        angles = head_angles(chunk.rotation)
+        angles[~(ok & np.all(np.isfinite(angles), axis=1))] = 0.0
+    weights = np.where(ok[:, None], weights, 0.0)
+    times = start_time + chunk.times
+    if layout == "arkit":
         values = np.zeros((f, len(LLF_BLENDSHAPES) + len(LLF_HEAD_EYES)))
         count = np.zeros(len(LLF_BLENDSHAPES))
         for j, cols in enumerate(columns):
@@ -151,21 +187,13 @@ def write_weights_csv(path: str | os.PathLike, weights: np.ndarray, names: Seque
         if angles is not None:
             values[:, len(count): len(count) + 3] = angles / np.pi
         n_columns = str(len(LLF_BLENDSHAPES) + len(LLF_HEAD_EYES))
-        lead = ([llf_timecode(t), n_columns] for t in times)     # row by row: memory flat in the take
+        lead = ([llf_timecode(t), n_columns] for t in times)
     else:
-        header = ["time", "valid", *names]
         values = weights
         if angles is not None:
-            header += ["head_yaw", "head_pitch", "head_roll"]
             values = np.concatenate([weights, angles], axis=1)
         lead = ([f"{t:.6f}", str(int(v))] for t, v in zip(times, ok, strict=True))
-    with atomic_path(path, suffix=".csv") as tmp:
-        with open(tmp, "w", newline="", encoding="utf-8") as fh:
-            writer = csv.writer(fh, lineterminator="\n")
-            writer.writerow(header)
-            for first, row in zip(lead, values, strict=True):
-                writer.writerow(first + [_number(x) for x in row.tolist()])
-    return layout
+    return zip(lead, values, strict=True)
 
 
 def _number(x: float) -> str:

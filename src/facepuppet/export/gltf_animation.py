@@ -17,6 +17,7 @@ import os
 import numpy as np
 
 from facepuppet import __version__
+from facepuppet.export.take import TakeRows
 from facepuppet.io.character import Character
 from facepuppet.io.glb import GltfBuilder
 from facepuppet.io.gltf import add_character
@@ -24,7 +25,7 @@ from facepuppet.io.gltf import add_character
 __all__ = ["write_animated_glb", "rotation_quaternions"]
 
 
-def write_animated_glb(path: str | os.PathLike, character: Character, weights: np.ndarray, fps: float, *,
+def write_animated_glb(path: str | os.PathLike, character: Character, weights: np.ndarray | TakeRows, fps: float, *,
                        head_rotation: np.ndarray | None = None, pivot: np.ndarray | None = None,
                        normals: bool = False, name: str = "performance", times: np.ndarray | None = None) -> None:
     """Write ``character`` with one animation of its morph weights (and head rotation) as a GLB, atomically.
@@ -35,8 +36,10 @@ def write_animated_glb(path: str | os.PathLike, character: Character, weights: n
         Output .glb file.
     character : Character
         Its M key-models become the morph targets, in order.
-    weights : (F, M) float
-        Morph weights per frame.
+    weights : (F, M) float, or TakeRows
+        Morph weights per frame; or the whole take as :class:`~facepuppet.export.take.TakeRows` (weights,
+        times and head rotations read chunk by chunk as the file is written: memory flat in the take's length;
+        ``head_rotation`` and ``times`` are then not given).
     fps : float
         Frames per second of the source video; frame f is keyed at f / fps seconds.
     head_rotation : (F, 3, 3) float, optional
@@ -51,33 +54,49 @@ def write_animated_glb(path: str | os.PathLike, character: Character, weights: n
     times : (F,) float, optional
         Each frame's time in seconds, increasing (a live recording with dropped frames); ``f / fps`` if None.
     """
-    weights = np.asarray(weights, dtype=np.float64)
     m = len(character.names)
-    if weights.ndim != 2 or weights.shape[1] != m or len(weights) == 0:
-        raise ValueError(f"weights must have shape (F, {m}) with F >= 1, got {weights.shape}")
     if not (np.isfinite(fps) and fps > 0):
         raise ValueError(f"fps must be a positive number, got {fps}")
+    if isinstance(weights, TakeRows):
+        if head_rotation is not None or times is not None:
+            raise ValueError("times and head rotations of a TakeRows are its own")
+        rows = weights
+        if rows.width != m or rows.frames == 0:
+            raise ValueError(f"weights must have shape (F, {m}) with F >= 1, got ({rows.frames}, {rows.width})")
+    else:
+        weights = np.asarray(weights, dtype=np.float64)
+        if weights.ndim != 2 or weights.shape[1] != m or len(weights) == 0:
+            raise ValueError(f"weights must have shape (F, {m}) with F >= 1, got {weights.shape}")
+        f = len(weights)
+        times = np.arange(f) / fps if times is None else np.asarray(times, dtype=np.float64)
+        if times.shape != (f,) or not np.isfinite(times).all() or (f > 1 and not (np.diff(times) > 0).all()):
+            raise ValueError(f"times must be {f} finite, increasing seconds, got shape {times.shape}")
+        if head_rotation is not None:
+            head_rotation = np.asarray(head_rotation, dtype=np.float64)
+            if head_rotation.shape != (f, 3, 3):
+                raise ValueError(f"head_rotation must have shape ({f}, 3, 3), got {head_rotation.shape}")
+        rows = TakeRows.from_arrays(weights, times, rotation=head_rotation)
     if m == 0:
         raise ValueError("the character has no key-models to animate")
-    f = len(weights)
-    if times is None:
-        times = np.arange(f) / fps
-    times = np.asarray(times, dtype=np.float64)
-    if times.shape != (f,) or not np.isfinite(times).all() or (f > 1 and not (np.diff(times) > 0).all()):
-        raise ValueError(f"times must be {f} finite, increasing seconds, got shape {times.shape}")
-    weights = np.where(np.all(np.isfinite(weights), axis=1, keepdims=True), weights, 0.0)
+    f = rows.frames
+
+    def key_times():
+        for chunk in rows.times_checked():
+            yield chunk.times.astype(np.float32)
+
+    def key_weights():
+        for chunk in rows.read():
+            w = chunk.weights
+            yield np.where(np.all(np.isfinite(w), axis=1, keepdims=True), w, 0.0).astype(np.float32).reshape(-1)
 
     builder = GltfBuilder(generator=f"facepuppet {__version__}")
     mesh_node = add_character(builder, character, normals=normals)
-    times = builder.add_accessor(times.astype(np.float32), min_max=True)
-    samplers = [{"input": times, "interpolation": "LINEAR",
-                 "output": builder.add_accessor(weights.astype(np.float32).reshape(-1))}]
+    times_acc = builder.add_streamed_accessor(f, 1, key_times, min_max=True)
+    samplers = [{"input": times_acc, "interpolation": "LINEAR",
+                 "output": builder.add_streamed_accessor(f * m, 1, key_weights)}]
     channels = [{"sampler": 0, "target": {"node": mesh_node, "path": "weights"}}]
     root = mesh_node
-    if head_rotation is not None:
-        rotation = np.asarray(head_rotation, dtype=np.float64)
-        if rotation.shape != (f, 3, 3):
-            raise ValueError(f"head_rotation must have shape ({f}, 3, 3), got {rotation.shape}")
+    if rows.has_rotation:
         if pivot is None:
             neutral = np.asarray(character.neutral)
             pivot = (neutral.min(axis=0) + neutral.max(axis=0)) / 2
@@ -85,8 +104,17 @@ def write_animated_glb(path: str | os.PathLike, character: Character, weights: n
         builder.json["nodes"][mesh_node]["translation"] = [float(x) for x in -pivot]
         root = builder.add_node({"name": "head", "translation": [float(x) for x in pivot],
                                  "children": [mesh_node]})
-        quats = rotation_quaternions(rotation).astype(np.float32)
-        samplers.append({"input": times, "interpolation": "LINEAR", "output": builder.add_accessor(quats)})
+
+        def key_rotations():
+            previous = None
+            for chunk in rows.read():
+                q = rotation_quaternions(chunk.rotation, previous=previous)
+                if len(q):
+                    previous = q[-1]
+                yield q.astype(np.float32)
+
+        samplers.append({"input": times_acc, "interpolation": "LINEAR",
+                         "output": builder.add_streamed_accessor(f, 4, key_rotations)})
         channels.append({"sampler": 1, "target": {"node": root, "path": "rotation"}})
     builder.add_animation({"name": name, "samplers": samplers, "channels": channels})
     builder.json["scenes"] = [{"name": character.name, "nodes": [root]}]
@@ -94,11 +122,12 @@ def write_animated_glb(path: str | os.PathLike, character: Character, weights: n
     builder.write(path)
 
 
-def rotation_quaternions(rotation: np.ndarray) -> np.ndarray:
+def rotation_quaternions(rotation: np.ndarray, *, previous: np.ndarray | None = None) -> np.ndarray:
     """Unit quaternions (F, 4) as glTF stores them, (x, y, z, w), of rotation matrices (F, 3, 3).
 
     Non-finite or far-from-orthonormal matrices give the identity. Consecutive quaternions are kept in the
-    same hemisphere (q and -q are the same rotation), so LINEAR interpolation turns the short way.
+    same hemisphere (q and -q are the same rotation), so LINEAR interpolation turns the short way; the first
+    one in the hemisphere of ``previous`` (4,), the quaternion before it, when given (a take in chunks).
     """
     r = np.asarray(rotation, dtype=np.float64)
     ok = np.all(np.isfinite(r), axis=(1, 2))
@@ -125,6 +154,8 @@ def rotation_quaternions(rotation: np.ndarray) -> np.ndarray:
             s = 2 * np.sqrt(max(1 + a[2, 2] - a[0, 0] - a[1, 1], 1e-300))
             q[i] = [(a[0, 2] + a[2, 0]) / s, (a[1, 2] + a[2, 1]) / s, s / 4, (a[1, 0] - a[0, 1]) / s]
     q /= np.linalg.norm(q, axis=1, keepdims=True)
+    if previous is not None and len(q) and np.dot(q[0], previous) < 0:
+        q[0] = -q[0]
     for i in range(1, len(q)):
         if np.dot(q[i], q[i - 1]) < 0:
             q[i] = -q[i]

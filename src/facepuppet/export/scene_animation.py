@@ -25,7 +25,6 @@ The animation has one key per frame (LINEAR):
 
 from __future__ import annotations
 
-import base64
 import copy
 import json
 import logging
@@ -38,9 +37,11 @@ import numpy as np
 
 from facepuppet._util.atomic import atomic_path
 from facepuppet.export.gltf_animation import rotation_quaternions
+from facepuppet.export.take import TakeRows
+from facepuppet.io.glb import BufferParts, write_glb_stream, write_gltf_stream
 from facepuppet.io.gltf import quaternion_matrix
 from facepuppet.io.keymodels import keymodel_binds, morph_names
-from facepuppet.io.scene import glb_bytes, scene_from_glb
+from facepuppet.io.scene import scene_from_glb
 
 __all__ = ["write_scene_animation", "find_head_joint", "HEAD_JOINT_NAMES"]
 
@@ -52,9 +53,10 @@ HEAD_JOINT_NAMES = frozenset({"head", "jbipchead", "defhead", "ccbasehead", "bip
                               "headjnt", "headjoint", "headbone", "headj"})
 
 
-def write_scene_animation(path: str | os.PathLike, source: bytes, names: Sequence[str], weights: np.ndarray,
-                          fps: float, *, times: np.ndarray | None = None, head_rotation: np.ndarray | None = None,
-                          pivot: np.ndarray | None = None, name: str = "performance") -> None:
+def write_scene_animation(path: str | os.PathLike, source: bytes, names: Sequence[str],
+                          weights: np.ndarray | TakeRows, fps: float, *, times: np.ndarray | None = None,
+                          head_rotation: np.ndarray | None = None, pivot: np.ndarray | None = None,
+                          name: str = "performance") -> None:
     """Write the scene ``source`` with one animation of key-model weights (and head rotation), atomically.
 
     Parameters
@@ -65,8 +67,10 @@ def write_scene_animation(path: str | os.PathLike, source: bytes, names: Sequenc
         The scene as one self-contained GLB (:attr:`Character.source`).
     names : sequence of K str
         The key-models the weights drive (names :func:`keymodel_binds` knows).
-    weights : (F, K) float
-        Weights per frame; a frame with a non-finite weight is neutral (zeros).
+    weights : (F, K) float, or TakeRows
+        Weights per frame; a frame with a non-finite weight is neutral (zeros). Or the whole take as
+        :class:`~facepuppet.export.take.TakeRows`, read chunk by chunk as the file is written (``times`` and
+        ``head_rotation`` are then its own).
     fps : float
         Frame rate; frame f is keyed at f / fps seconds unless ``times`` is given.
     times : (F,) float, optional
@@ -78,103 +82,139 @@ def write_scene_animation(path: str | os.PathLike, source: bytes, names: Sequenc
     name : str
         The animation's name.
     """
-    weights = np.asarray(weights, dtype=np.float64)
     names = list(names)
-    if weights.ndim != 2 or weights.shape[1] != len(names) or len(weights) == 0:
-        raise ValueError(f"weights must have shape (F, {len(names)}) with F >= 1, got {weights.shape}")
+    if isinstance(weights, TakeRows):
+        if head_rotation is not None or times is not None:
+            raise ValueError("times and head rotations of a TakeRows are its own")
+        rows = weights
+        if rows.width != len(names) or rows.frames == 0:
+            raise ValueError(f"weights must have shape (F, {len(names)}) with F >= 1, got "
+                             f"({rows.frames}, {rows.width})")
+    else:
+        weights = np.asarray(weights, dtype=np.float64)
+        if weights.ndim != 2 or weights.shape[1] != len(names) or len(weights) == 0:
+            raise ValueError(f"weights must have shape (F, {len(names)}) with F >= 1, got {weights.shape}")
+        rows = None
     if not (np.isfinite(fps) and fps > 0):
         raise ValueError(f"fps must be a positive number, got {fps}")
-    f = len(weights)
-    times = np.arange(f) / fps if times is None else np.asarray(times, dtype=np.float64)
-    if times.shape != (f,) or not np.isfinite(times).all() or (f > 1 and not (np.diff(times) > 0).all()):
-        raise ValueError(f"times must be {f} finite, increasing seconds, got shape {times.shape}")
-    weights = np.where(np.all(np.isfinite(weights), axis=1, keepdims=True), weights, 0.0)
+    if rows is None:
+        f = len(weights)
+        times = np.arange(f) / fps if times is None else np.asarray(times, dtype=np.float64)
+        if times.shape != (f,) or not np.isfinite(times).all() or (f > 1 and not (np.diff(times) > 0).all()):
+            raise ValueError(f"times must be {f} finite, increasing seconds, got shape {times.shape}")
+        if head_rotation is not None:
+            head_rotation = np.asarray(head_rotation, dtype=np.float64)
+            if head_rotation.shape != (f, 3, 3):
+                raise ValueError(f"head_rotation must have shape ({f}, 3, 3), got {head_rotation.shape}")
+        rows = TakeRows.from_arrays(weights, times, rotation=head_rotation)
+    f = rows.frames
     scene = scene_from_glb(source, "character scene")
-    doc, blob = copy.deepcopy(scene.doc), bytearray(scene.blob)
-    add = _Appender(doc, blob)
+    doc, parts = copy.deepcopy(scene.doc), BufferParts(scene.blob)
+    add = _Appender(doc, parts)
 
     binds = keymodel_binds(doc)
     unknown = [n for n in names if n not in binds]
     if unknown:
         raise ValueError(f"key-models not in the character's scene: {', '.join(unknown)}")
-    per_mesh = _mesh_weights(doc, binds, names, weights)
-    t_acc = add.accessor(times.astype(np.float32), min_max=True)
+    per_mesh = _mesh_weights(doc, binds, names)
+
+    def key_times():
+        for chunk in rows.times_checked():
+            yield chunk.times.astype(np.float32)
+
+    def mesh_keys(make, n_targets):
+        def chunks():
+            for chunk in rows.read():
+                w = chunk.weights
+                w = np.where(np.all(np.isfinite(w), axis=1, keepdims=True), w, 0.0)
+                yield make(w).astype(np.float32).reshape(-1)
+        return add.streamed(f * n_targets, 1, chunks)
+
+    t_acc = add.streamed(f, 1, key_times, min_max=True)
     samplers, channels = [], []
     for node_index, node in enumerate(doc.get("nodes") or []):
         if node.get("mesh") in per_mesh:
-            samplers.append({"input": t_acc, "interpolation": "LINEAR",
-                             "output": add.accessor(per_mesh[node["mesh"]].astype(np.float32).reshape(-1))})
+            samplers.append({"input": t_acc, "interpolation": "LINEAR", "output": mesh_keys(*per_mesh[node["mesh"]])})
             channels.append({"sampler": len(samplers) - 1, "target": {"node": node_index, "path": "weights"}})
     if not channels:
         raise ValueError("no node of the scene shows a mesh the key-models move")
-    if head_rotation is not None:
-        rotation = np.asarray(head_rotation, dtype=np.float64)
-        if rotation.shape != (f, 3, 3):
-            raise ValueError(f"head_rotation must have shape ({f}, 3, 3), got {rotation.shape}")
+    if rows.has_rotation:
         faces = sorted({c["target"]["node"] for c in channels})
         c = np.zeros(3) if pivot is None else np.asarray(pivot, dtype=np.float64).reshape(3)
-        for node, path_name, values in _head_channels(doc, faces, rotation, c):
-            samplers.append({"input": t_acc, "interpolation": "LINEAR",
-                             "output": add.accessor(values.astype(np.float32))})
+        for node, path_name, width, values in _head_channels(doc, faces, c):
+            def chunks(values=values):
+                state: dict = {}
+                for chunk in rows.read():
+                    yield values(chunk.rotation, state).astype(np.float32)
+
+            samplers.append({"input": t_acc, "interpolation": "LINEAR", "output": add.streamed(f, width, chunks)})
             channels.append({"sampler": len(samplers) - 1, "target": {"node": node, "path": path_name}})
     doc.setdefault("animations", []).append({"name": name, "samplers": samplers, "channels": channels})
     add.finish()
     path = Path(path)
-    with atomic_path(path) as tmp:
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
         if path.suffix.lower() == ".gltf":
-            doc["buffers"][0]["uri"] = ("data:application/octet-stream;base64,"
-                                        + base64.b64encode(bytes(blob)).decode("ascii"))
-            tmp.write_text(json.dumps(doc, indent=1, ensure_ascii=False), encoding="utf-8")
+            write_gltf_stream(fh, doc, doc["buffers"][0], parts, indent=1, ensure_ascii=False)
         else:
-            tmp.write_bytes(glb_bytes(doc, bytes(blob)))
+            write_glb_stream(fh, json.dumps(doc, separators=(",", ":"), ensure_ascii=False).encode("utf-8"), parts)
 
 
 class _Appender:
-    """Appends accessors (own 4-byte aligned buffer views) to buffer 0 of ``doc`` / ``blob``."""
+    """Appends accessors (own 4-byte aligned buffer views) to buffer 0 of ``doc`` / ``parts``, their float32
+    values streamed as the file is written."""
 
-    def __init__(self, doc: dict, blob: bytearray) -> None:
-        self.doc, self.blob = doc, blob
+    def __init__(self, doc: dict, parts: BufferParts) -> None:
+        self.doc, self.parts = doc, parts
 
-    def accessor(self, array: np.ndarray, *, min_max: bool = False) -> int:
-        array = np.ascontiguousarray(array, dtype=np.float32)
-        k = 1 if array.ndim == 1 else array.shape[1]
-        self.blob.extend(b"\0" * (-len(self.blob) % 4))
-        self.doc.setdefault("bufferViews", []).append({"buffer": 0, "byteOffset": len(self.blob),
-                                                       "byteLength": array.nbytes})
-        self.blob.extend(array.tobytes())
-        acc = {"bufferView": len(self.doc["bufferViews"]) - 1, "componentType": 5126, "count": len(array),
+    def streamed(self, count: int, k: int, chunks, *, min_max: bool = False) -> int:
+        """An accessor of ``count`` float32 items of ``k`` values made by ``chunks()``; its index."""
+        self.parts.align()
+        nbytes = int(count) * int(k) * 4
+        self.doc.setdefault("bufferViews", []).append({"buffer": 0, "byteOffset": self.parts.size,
+                                                       "byteLength": nbytes})
+        self.parts.append_stream(nbytes, chunks)
+        acc = {"bufferView": len(self.doc["bufferViews"]) - 1, "componentType": 5126, "count": int(count),
                "type": {1: "SCALAR", 3: "VEC3", 4: "VEC4"}[k]}
         if min_max:
-            flat = array.reshape(len(array), k)
-            acc["min"], acc["max"] = [float(x) for x in flat.min(0)], [float(x) for x in flat.max(0)]
+            low, high = np.inf, -np.inf
+            for array in chunks():
+                if len(array):
+                    low, high = min(low, array.min()), max(high, array.max())
+            acc["min"], acc["max"] = [float(low)], [float(high)]
         self.doc.setdefault("accessors", []).append(acc)
         return len(self.doc["accessors"]) - 1
 
     def finish(self) -> None:
-        self.blob.extend(b"\0" * (-len(self.blob) % 4))
+        self.parts.align()
         buffers = self.doc.setdefault("buffers", [{"byteLength": 0}])
-        buffers[0]["byteLength"] = len(self.blob)
+        buffers[0]["byteLength"] = self.parts.size
 
 
-def _mesh_weights(doc: dict, binds: dict, names: list[str], weights: np.ndarray) -> dict[int, np.ndarray]:
-    """mesh index -> (F, n targets) weights, for meshes with a target bound to a driven key-model."""
-    out: dict[int, np.ndarray] = {}
+def _mesh_weights(doc: dict, binds: dict, names: list[str]) -> dict[int, tuple]:
+    """mesh index -> (make, n targets) for meshes with a target bound to a driven key-model; ``make`` turns
+    key-model weights (n, K) into the mesh's morph weights (n, n targets)."""
     driven: dict[int, set[int]] = {}
     for name in names:
         for m, j, _ in binds[name]:
             driven.setdefault(m, set()).add(j)
+    out: dict[int, tuple] = {}
     for m, targets in driven.items():
         n = len(morph_names(doc, m))
         default = np.zeros(n)
         stored = doc["meshes"][m].get("weights")
         if isinstance(stored, list) and len(stored) == n:
             default = np.asarray(stored, dtype=np.float64)
-        w = np.repeat(default[None], len(weights), axis=0)
-        w[:, sorted(targets)] = 0.0
-        out[m] = w
-    for k, name in enumerate(names):
-        for m, j, factor in binds[name]:
-            out[m][:, j] += factor * weights[:, k]
+        terms = [(k, j, factor) for k, name in enumerate(names) for mm, j, factor in binds[name] if mm == m]
+        targets = sorted(targets)
+
+        def make(weights, default=default, targets=targets, terms=terms):
+            w = np.repeat(default[None], len(weights), axis=0)
+            w[:, targets] = 0.0
+            for k, j, factor in terms:
+                w[:, j] += factor * weights[:, k]
+            return w
+
+        out[m] = (make, n)
     return out
 
 
@@ -225,8 +265,17 @@ def _rotation_part(m: np.ndarray) -> np.ndarray:
     return u @ vt
 
 
-def _head_channels(doc: dict, faces: list[int], rotation: np.ndarray, pivot: np.ndarray):
-    """(node, path, values) channels that turn the head (see the module notes)."""
+def _quaternions(matrices: np.ndarray, state: dict) -> np.ndarray:
+    """:func:`rotation_quaternions` of one chunk, in the hemisphere of the chunk before (``state["q"]``)."""
+    q = rotation_quaternions(matrices, previous=state.get("q"))
+    if len(q):
+        state["q"] = q[-1]
+    return q
+
+
+def _head_channels(doc: dict, faces: list[int], pivot: np.ndarray):
+    """(node, path, width, values) channels that turn the head (see the module notes); ``values(rotation,
+    state)`` gives a chunk's keys (n, width) of rotations (n, 3, 3), ``state`` a dict kept over one pass."""
     nodes, parents = doc["nodes"], _parents(doc)
     joint = find_head_joint(doc)
     if joint is not None:
@@ -236,8 +285,11 @@ def _head_channels(doc: dict, faces: list[int], rotation: np.ndarray, pivot: np.
             log.warning("head joint %r has a matrix, which glTF cannot animate; head rotation not written",
                         nodes[joint].get("name"))
             return []
-        local = np.einsum("ij,fjk,kl,lm->fim", p.T, rotation, p, rest)
-        return [(joint, "rotation", rotation_quaternions(local))]
+
+        def joint_rotation(rotation, state):
+            return _quaternions(np.einsum("ij,fjk,kl,lm->fim", p.T, rotation, p, rest), state)
+
+        return [(joint, "rotation", 4, joint_rotation)]
     rigid = [i for i in faces if nodes[i].get("skin") is None]
     if not rigid:
         log.warning("the face is skinned and the skeleton has no head joint; head rotation not written")
@@ -272,10 +324,18 @@ def _head_channels(doc: dict, faces: list[int], rotation: np.ndarray, pivot: np.
                                     [k for k in kids[at:] if k not in children]
     world = _world(doc, parent, parents)
     inv = np.linalg.inv(world)
-    local = np.zeros((len(rotation), 4, 4))
-    local[:, :3, :3] = rotation
-    local[:, :3, 3] = pivot - rotation @ pivot
-    local[:, 3, 3] = 1.0
-    local = inv[None] @ local @ world[None]
-    return [(head, "rotation", rotation_quaternions(np.stack([_rotation_part(m) for m in local]))),
-            (head, "translation", local[:, :3, 3])]
+
+    def turned(rotation):
+        local = np.zeros((len(rotation), 4, 4))
+        local[:, :3, :3] = rotation
+        local[:, :3, 3] = pivot - rotation @ pivot
+        local[:, 3, 3] = 1.0
+        return inv[None] @ local @ world[None]
+
+    def head_rotation(rotation, state):
+        return _quaternions(np.stack([_rotation_part(m) for m in turned(rotation)]), state)
+
+    def head_translation(rotation, state):
+        return turned(rotation)[:, :3, 3]
+
+    return [(head, "rotation", 4, head_rotation), (head, "translation", 3, head_translation)]

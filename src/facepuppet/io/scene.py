@@ -70,14 +70,35 @@ def parse_glb(data: bytes, label: str = "GLB") -> tuple[dict, bytes | None]:
         if kind == _CHUNK_JSON and doc is None:
             try:
                 doc = json.loads(chunk.decode("utf-8"))
-            except (UnicodeDecodeError, ValueError) as e:
-                raise FacepuppetError(f"{label}: bad JSON chunk ({e})") from e
+            except (UnicodeDecodeError, ValueError, RecursionError) as e:
+                raise FacepuppetError(f"{label}: bad JSON chunk ({_reason(e)})") from e
         elif kind == _CHUNK_BIN and blob is None:
             blob = bytes(chunk)
         at += 8 + size + (-size % 4)
     if not isinstance(doc, dict):
         raise FacepuppetError(f"{label}: GLB has no JSON chunk")
+    _check_depth(doc, label)
     return doc, blob
+
+
+#: Deepest nesting of objects and lists a glTF JSON may have (a scene is a few levels; extras a few more).
+MAX_JSON_DEPTH = 64
+
+
+def _reason(e: Exception) -> str:
+    return "nested too deeply" if isinstance(e, RecursionError) else str(e)
+
+
+def _check_depth(doc, label: str) -> None:
+    """FacepuppetError naming ``label`` when the JSON nests deeper than :data:`MAX_JSON_DEPTH` (walked without
+    recursion: copying or walking it later would exhaust Python's stack)."""
+    level = [doc]
+    for _ in range(MAX_JSON_DEPTH + 1):
+        level = [v for x in level for v in (x.values() if isinstance(x, dict) else x)
+                 if isinstance(v, (dict, list))]
+        if not level:
+            return
+    raise FacepuppetError(f"{label}: glTF JSON nested more than {MAX_JSON_DEPTH} levels deep")
 
 
 def glb_bytes(doc: dict, blob: bytes) -> bytes:
@@ -110,10 +131,11 @@ def load_scene(path: str | os.PathLike) -> Scene:
         glb_blob = None
         try:
             doc = json.loads(data.decode("utf-8-sig"))
-        except (UnicodeDecodeError, ValueError) as e:
-            raise FacepuppetError(f"{path}: neither GLB nor glTF JSON ({e})") from e
+        except (UnicodeDecodeError, ValueError, RecursionError) as e:
+            raise FacepuppetError(f"{path}: neither GLB nor glTF JSON ({_reason(e)})") from e
         if not isinstance(doc, dict):
             raise FacepuppetError(f"{path}: glTF JSON is not an object")
+        _check_depth(doc, str(path))
     from facepuppet.io.compressed import COMPRESSION, decode_compressed
 
     buffers = doc.get("buffers") or []

@@ -74,9 +74,10 @@ class Animation:
     Attributes
     ----------
     weights : (F, C) float
-        Final weights (smoothed, gain applied), one column per channel (``names``).
+        Final weights (smoothed, gain applied), one column per channel (``names``); no rows when
+        :func:`animate` was told not to keep them.
     raw : (F, C) float
-        The mapper's weights before smoothing and gain; NaN on frames without a face.
+        The mapper's weights before smoothing and gain; NaN on frames without a face (no rows likewise).
     names : tuple of C str
         The rig's channels (``Rig.channel_names``): its M paired key-model names, or for a regional rig the
         R·M ``"<region>/<key-model>"``, region-major.
@@ -158,7 +159,7 @@ def _check_out(path) -> None:
 def animate(media: str | os.PathLike | None, rig, *, glb: str | os.PathLike | None = None,
             csv: str | os.PathLike | None = None, preview: str | os.PathLike | None = None,
             track: Track | str | os.PathLike | None = None, config: AnimateConfig | None = None,
-            colors: np.ndarray | None = None, keep_track: bool = True,
+            colors: np.ndarray | None = None, keep_track: bool = True, keep_weights: bool = True,
             max_frames: int | None = None, on_frame: Callable[[int], None] | None = None) -> Animation:
     """Animate a character from a performance video, in one causal pass (:mod:`facepuppet.pipeline.stream`).
 
@@ -182,6 +183,9 @@ def animate(media: str | os.PathLike | None, rig, *, glb: str | os.PathLike | No
     keep_track : bool
         Keep every frame's features and return them as ``Animation.track`` (memory grows with the take);
         False keeps only the weights.
+    keep_weights : bool
+        Keep every frame's weights in ``Animation.weights`` / ``raw`` (16 bytes a weight a frame); False
+        returns them with no rows (the files have them) and keeps one flag a frame (``Animation.valid``).
     max_frames : int, optional
         Stop after this many frames.
     on_frame : callable, optional
@@ -233,7 +237,7 @@ def animate(media: str | os.PathLike | None, rig, *, glb: str | os.PathLike | No
             frames = source_frames(source, max_frames=max_frames)
         else:
             frames = track_frames(track, source, max_frames=max_frames)
-        recorder = _Recorder(keep_track)
+        recorder = _Recorder(keep_track, keep_weights)
         outputs: list = [recorder]
         if glb is not None:
             outputs.append(GlbOutput(glb, rig, stack, head_rotation=config.head_rotation, fps=fps))
@@ -288,14 +292,20 @@ class _Recorder:
     #: Rows per block of the weights kept (blocks of plain float64: 16 bytes a weight, no object per frame).
     BLOCK = 4096
 
-    def __init__(self, keep_track: bool) -> None:
-        self.keep_track = keep_track
+    def __init__(self, keep_track: bool, keep_weights: bool = True) -> None:
+        self.keep_track, self.keep_weights = keep_track, keep_weights
         self.raw: list[np.ndarray] = []       # blocks of (BLOCK, M), the last one filled up to _fill
         self.weights: list[np.ndarray] = []
         self._fill = self.BLOCK
         self.features: list[FrameFeatures] = []
+        self.valid = bytearray()              # one flag a frame when the weights are not kept
 
     def write(self, frame: StreamFrame) -> None:
+        if self.keep_track:
+            self.features.append(frame.features)
+        if not self.keep_weights:
+            self.valid.append(frame.valid)
+            return
         if self._fill == self.BLOCK:
             m = len(frame.weights)
             self.raw.append(np.empty((self.BLOCK, m)))
@@ -304,8 +314,6 @@ class _Recorder:
         self.raw[-1][self._fill] = frame.raw
         self.weights[-1][self._fill] = frame.weights
         self._fill += 1
-        if self.keep_track:
-            self.features.append(frame.features)
 
     def _rows(self, blocks: list[np.ndarray], m: int) -> np.ndarray:
         if not blocks:
@@ -324,6 +332,9 @@ class _Recorder:
                                       static_extras=static_extras)
         names = tuple(getattr(rig, "channel_names", rig.names))
         m = len(names)
+        if not self.keep_weights:
+            return Animation(np.zeros((0, m)), np.zeros((0, m)), names, float(fps), track,
+                             valid_frames=np.frombuffer(bytes(self.valid), dtype=np.uint8).astype(bool))
         raw = self._rows(self.raw, m)
         return Animation(self._rows(self.weights, m), raw, names, float(fps), track,
                          valid_frames=np.isfinite(raw).all(axis=1))

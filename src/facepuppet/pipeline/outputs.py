@@ -4,7 +4,8 @@ Each output holds its file under a temporary name from the moment it is opened (
 the caller's :class:`contextlib.ExitStack`) and is renamed onto its own name only when the whole stack closes
 without error: all outputs of a run appear together, or none. The preview video is written frame by frame; the
 GLB and the CSV need the whole take, so their rows (the weights and rotations, a few hundred bytes a frame) are
-spooled to a temporary file beside the output instead of memory, and written at :meth:`finish`.
+spooled to a temporary file beside the output instead of memory, and written at :meth:`finish` from the spool
+chunk by chunk (:class:`~facepuppet.export.take.TakeRows`): memory stays flat in the take's length.
 """
 
 from __future__ import annotations
@@ -12,13 +13,18 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from facepuppet._util.atomic import atomic_path
 from facepuppet.errors import FacepuppetError
 from facepuppet.pipeline.stream import StreamFrame
+
+if TYPE_CHECKING:
+    from facepuppet.export.take import TakeRows
 
 __all__ = ["RowSpool", "GlbOutput", "CsvOutput", "PreviewOutput", "OUTPUT_SUFFIXES", "check_suffix"]
 
@@ -67,6 +73,19 @@ class RowSpool:
         data = np.frombuffer(self._file.read(), dtype=np.float64)
         return data.reshape(self.rows, self.width).copy()
 
+    def chunks(self, rows: int) -> Iterator[np.ndarray]:
+        """All rows again, ``rows`` at a time: (n, width) float64 arrays, the last one shorter."""
+        self._file.flush()
+        self._file.seek(0)
+        left = self.rows
+        while left > 0:
+            n = min(int(rows), left)
+            data = self._file.read(n * self.width * 8)
+            if len(data) != n * self.width * 8:
+                raise OSError(f"the spool of {self.rows} rows ended early")
+            left -= n
+            yield np.frombuffer(data, dtype=np.float64).reshape(n, self.width)
+
     def close(self) -> None:
         self._file.close()
 
@@ -88,11 +107,21 @@ class _Rows:
         self.spool.append(np.concatenate([[frame.time, float(frame.valid)], frame.weights,
                                           frame.rotation.reshape(-1)]))
 
-    def read(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """times (F,), valid (F,) bool, weights (F, M), rotation (F, 3, 3)."""
-        data = self.spool.read()
-        m = self.m
-        return data[:, 0], data[:, 1] > 0.5, data[:, 2:2 + m], data[:, 2 + m:].reshape(-1, 3, 3)
+    def take(self, head_rotation: bool, weights=None, width: int | None = None) -> TakeRows:
+        """The rows as a take (chunks read from the spool), times from the first frame's; ``weights`` maps a
+        chunk's weights (n, M) to the (n, ``width``) the writer takes."""
+        from facepuppet.export.take import CHUNK_ROWS, TakeChunk, TakeRows
+
+        m, spool = self.m, self.spool
+        first = next(spool.chunks(1))[0, 0]
+
+        def read():
+            for data in spool.chunks(CHUNK_ROWS):
+                w = data[:, 2:2 + m]
+                yield TakeChunk(data[:, 0] - first, w if weights is None else weights(w),
+                                data[:, 2 + m:].reshape(-1, 3, 3) if head_rotation else None)
+
+        return TakeRows(spool.rows, m if width is None else int(width), read, bool(head_rotation))
 
 
 def _channels(rig) -> tuple[str, ...]:
@@ -139,23 +168,19 @@ class GlbOutput:
 
         if self._rows.spool.rows == 0:
             raise FacepuppetError(f"{self.path}: no frames to write")
-        times, _, weights, rotation = self._rows.read()
-        times = times - times[0] if len(times) else times
-        rotation = rotation if self.head_rotation else None
         character = self.rig.character
         if getattr(self.rig, "regional", False):  # the bare mesh, key-models split by region (R·M targets)
-            write_animated_glb(self._tmp, self.rig.split_character(), weights, self.fps, times=times,
-                               head_rotation=rotation)
+            write_animated_glb(self._tmp, self.rig.split_character(), self._rows.take(self.head_rotation), self.fps)
             return
         if character.source is not None:  # the character's own scene, whole, with the animation added
             from facepuppet.export.scene_animation import write_scene_animation
 
             neutral = np.asarray(character.neutral)
-            write_scene_animation(self._tmp, character.source, self.rig.names, weights, self.fps, times=times,
-                                  head_rotation=rotation, pivot=(neutral.min(axis=0) + neutral.max(axis=0)) / 2)
+            write_scene_animation(self._tmp, character.source, self.rig.names, self._rows.take(self.head_rotation),
+                                  self.fps, pivot=(neutral.min(axis=0) + neutral.max(axis=0)) / 2)
             return
-        write_animated_glb(self._tmp, character, self.rig.character_weights(weights), self.fps,
-                           times=times, head_rotation=rotation)
+        take = self._rows.take(self.head_rotation, self.rig.character_weights, len(character.names))
+        write_animated_glb(self._tmp, character, take, self.fps)
 
 
 class CsvOutput:
@@ -180,11 +205,9 @@ class CsvOutput:
 
         if self._rows.spool.rows == 0:
             raise FacepuppetError(f"{self.path}: no frames to write")
-        times, _, weights, rotation = self._rows.read()
         regional = getattr(self.rig, "regional", False)
-        write_weights_csv(self._tmp, weights, _channels(self.rig), self.fps, layout="plain" if regional else "auto",
-                          times=times - times[0] if len(times) else times,
-                          head_rotation=rotation if self.head_rotation else None)
+        write_weights_csv(self._tmp, self._rows.take(self.head_rotation), _channels(self.rig), self.fps,
+                          layout="plain" if regional else "auto")
 
 
 class PreviewOutput:

@@ -27,6 +27,7 @@ When the face returns the filter carries on from wherever the output stands, so 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -70,6 +71,9 @@ class SmoothingConfig:
         for name in ("beta", "hold", "ease"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"smoothing {name} must be >= 0, got {getattr(self, name)}")
+        for name in ("min_cutoff", "d_cutoff", "beta", "hold", "ease"):   # inf * 0 would make the weights NaN
+            if not math.isfinite(getattr(self, name)):
+                raise ValueError(f"smoothing {name} must be a finite number, got {getattr(self, name)}")
 
 
 def parse_smoothing(text: str) -> SmoothingConfig:

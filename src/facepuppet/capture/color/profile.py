@@ -10,7 +10,6 @@ MediaPipe. :func:`~facepuppet.capture.color.train.train_profile` learns a perfor
 from __future__ import annotations
 
 import os
-import zipfile
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -187,39 +186,90 @@ def _head(data: dict, path) -> dict:
         raise FacepuppetError(str(e)) from e
 
 
+#: The members of a profile file with a fixed shape (``name`` is a string; ``net_``, ``lids_``, ``shapes_``
+#: and ``head_`` members are the optional models' arrays).
+_MEMBER_SHAPES = {"version": (), "layout": GENERIC_LAYOUT.shape, "anchors": GENERIC_ANCHORS.shape,
+                  "skin_mean": np.shape(SkinModel().mean), "skin_cov": np.shape(SkinModel().cov),
+                  "skin_threshold": (), "lip_hue": (3,),
+                  "weights": DEFAULT_WEIGHTS.shape, "mouth_reach": ()}
+_MODEL_PREFIXES = ("net_", "lids_", "shapes_", "head_")
+#: Bytes one member of a profile file may hold (its largest, a shape model, is about a megabyte).
+PROFILE_MEMBER_BYTES = 64 << 20
+
+
+def _checked(data: dict, path) -> None:
+    """Raise FacepuppetError naming ``path`` and the member when a member is not the plain array it must be."""
+    for key, value in data.items():
+        if key == "name":
+            if value.dtype.kind != "U" or value.shape != ():
+                raise FacepuppetError(f"{path}: the profile's name must be one string, got {value.dtype} "
+                                      f"of shape {value.shape}")
+            continue
+        if value.dtype.kind not in "fiu":
+            raise FacepuppetError(f"{path}: the profile's {key!r} must hold numbers, not {value.dtype}")
+        if key in _MEMBER_SHAPES and value.shape != _MEMBER_SHAPES[key]:
+            raise FacepuppetError(f"{path}: the profile's {key!r} must have shape {_MEMBER_SHAPES[key]}, got "
+                                  f"{value.shape}")
+        if not np.isfinite(value).all():
+            raise FacepuppetError(f"{path}: the profile's {key!r} holds values that are not finite")
+    net = {k[4:]: v for k, v in data.items() if k.startswith("net_")}
+    if net:
+        from facepuppet.capture.color.net import ColourNet
+
+        try:
+            ColourNet.from_arrays(net)
+        except ValueError as e:
+            raise FacepuppetError(f"{path}: {e}") from e
+    lids = {k[5:]: v for k, v in data.items() if k.startswith("lids_")}
+    if lids:
+        from facepuppet.capture.color.lids import PATCH_SIZE
+
+        n = PATCH_SIZE[0] * PATCH_SIZE[1]
+        if set(lids) != {"coef", "intercept"} or lids["coef"].shape != (2, n) or lids["intercept"].shape != (2,):
+            raise FacepuppetError(f"{path}: the profile's eyelid model is damaged or of another kind")
+
+
 def load_profile(path: str | os.PathLike) -> Profile:
     """Read a profile written by :func:`save_profile`.
+
+    Only the members a profile has are read, each checked (header first, no pickle; see
+    :func:`facepuppet._util.npz.read_npz`) and then for its kind and shape.
 
     Raises
     ------
     FacepuppetError
-        If the file is missing, unreadable, truncated, of a future version or lacks a field.
+        If the file is missing, unreadable, truncated, of a future version, lacks a field or holds a member
+        of the wrong kind or shape.
     """
+    from facepuppet._util.npz import read_npz
+
     try:
-        with np.load(path, allow_pickle=False) as d:
-            data = {k: d[k] for k in d.files}
-    except FileNotFoundError as e:
-        raise FacepuppetError(f"{path}: no such profile file (make one from a clip of the performer with "
-                              f"'facepuppet calibrate CLIP --make-profile {path} ...')") from e
-    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as e:
-        raise FacepuppetError(f"{path}: not a readable profile file ({e})") from e
+        data = read_npz(path, "profile file", known=(*_MEMBER_SHAPES, "name"), prefixes=_MODEL_PREFIXES,
+                        member_bytes=PROFILE_MEMBER_BYTES)
+    except FacepuppetError as e:
+        if isinstance(e.__cause__, FileNotFoundError):
+            raise FacepuppetError(f"{path}: no such profile file (make one from a clip of the performer with "
+                                  f"'facepuppet calibrate CLIP --make-profile {path} ...')") from e
+        raise
+    version = data.get("version")
+    if version is not None and version.dtype.kind in "iu" and version.shape == () and int(version) > PROFILE_VERSION:
+        raise FacepuppetError(f"{path}: profile version {int(version)} is newer than this facepuppet reads "
+                              f"({PROFILE_VERSION}); upgrade facepuppet")
+    _checked(data, path)
     try:
         version = int(data["version"])
         if version > PROFILE_VERSION:
             raise FacepuppetError(f"{path}: profile version {version} is newer than this facepuppet reads "
                                   f"({PROFILE_VERSION}); upgrade facepuppet")
-        layout = data["layout"]
-        if layout.shape != GENERIC_LAYOUT.shape:
-            raise FacepuppetError(f"{path}: profile layout must have shape {GENERIC_LAYOUT.shape}, got {layout.shape}")
         hue = data["lip_hue"]
         cov = data["skin_cov"]
         return Profile(
-            layout=layout,
-            anchors=data["anchors"],
+            layout=data["layout"].astype(np.float64),
+            anchors=data["anchors"].astype(np.float64),
             skin=SkinModel(tuple(map(float, data["skin_mean"])), tuple(tuple(map(float, r)) for r in cov),
                            float(data["skin_threshold"])),
             lip_hue=LipHue(float(hue[0]), float(hue[1]), float(hue[2])),
-            weights=data["weights"],
+            weights=data["weights"].astype(np.float64),
             net={k[4:]: v for k, v in data.items() if k.startswith("net_")},
             lids={k[5:]: v for k, v in data.items() if k.startswith("lids_")},
             shapes=_shapes(data, path),
