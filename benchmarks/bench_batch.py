@@ -11,10 +11,13 @@ Timed in the same run, each as its own ``python -m facepuppet`` process (start-u
 - ``facepuppet batch --workers 1``, ``--workers 2`` (local engine) and ``--engine ray --workers 2`` (a local
   Ray runtime started by the command).
 
-Printed: seconds, frames per second, the speed-up over ``--workers 1`` and over the single runs, and Ray's
-overhead against the local engine with the same workers. Bars: 2 workers >= 1.7x one worker (2-core machine);
-Ray's overhead <= 15 % of the local engine's time. Every batch's outputs are checked byte for byte against the
-single runs'.
+Printed: seconds, frames per second, the CPU seconds of the run's processes (user + system of every process the
+run waited for: the batch and its local workers; Ray's workers belong to its runtime and are not counted) and
+the cores they kept busy on average (CPU / wall), the speed-up over ``--workers 1`` and over the single runs,
+Ray's overhead against the local engine with the same workers, and the 1-minute load average as each run
+started (other work on the machine slows the wall times, hardly the CPU seconds). Bars: 2 workers >= 1.7x one
+worker (2-core machine); Ray's overhead <= 15 % of the local engine's time. Every batch's outputs are checked
+byte for byte against the single runs'.
 
 Run: ``python benchmarks/bench_batch.py [--copies 12] [--assets PATH] [--no-ray]``
 """
@@ -24,6 +27,7 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -54,15 +58,22 @@ def make_rig(assets: Path, clip: Path, model: str, folder: Path) -> tuple[Path, 
     return profile, folder / "rig.npz"
 
 
-def facepuppet(*args: str) -> float:
-    """Run ``python -m facepuppet ARGS``; seconds of wall time. Exit codes other than 0 stop the benchmark."""
+def children_cpu() -> float:
+    """User + system CPU seconds of the processes this one has waited for, so far."""
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def facepuppet(*args: str) -> tuple[float, float]:
+    """Run ``python -m facepuppet ARGS``; seconds of wall time and CPU seconds of the processes it waited for.
+    Exit codes other than 0 stop the benchmark."""
     env = {**os.environ, "PYTHONPATH": str(ROOT / "src") + os.pathsep + os.environ.get("PYTHONPATH", "")}
-    t0 = time.perf_counter()
+    c0, t0 = children_cpu(), time.perf_counter()
     done = subprocess.run([sys.executable, "-m", "facepuppet", *args], env=env, capture_output=True, text=True)
-    dt = time.perf_counter() - t0
+    dt, cpu = time.perf_counter() - t0, children_cpu() - c0
     if done.returncode != 0:
         raise SystemExit(f"facepuppet {' '.join(args)} failed ({done.returncode}):\n{done.stderr[-2000:]}")
-    return dt
+    return dt, cpu
 
 
 def frame_count(path: Path) -> int:
@@ -102,33 +113,43 @@ def main(argv=None) -> int:
 
     single_dir = tmp / "single"
     single_dir.mkdir()
-    t_single = sum(facepuppet("animate", str(c), "-o", str(single_dir / f"{c.stem}.glb"),
-                              "--csv", str(single_dir / f"{c.stem}.csv"), *common) for c in clips)
+    load = {"sum of single animate runs": os.getloadavg()[0]}
+    singles = [facepuppet("animate", str(c), "-o", str(single_dir / f"{c.stem}.glb"),
+                          "--csv", str(single_dir / f"{c.stem}.csv"), *common) for c in clips]
+    t_single, cpu_single = sum(t for t, _ in singles), sum(c for _, c in singles)
     runs = [("batch --workers 1", ["--workers", "1"]), ("batch --workers 2", ["--workers", "2"])]
     if not args.no_ray and importlib.util.find_spec("ray") is not None:
         runs.append(("batch --engine ray --workers 2", ["--engine", "ray", "--workers", "2"]))
-    times = {}
+    times, cpus = {}, {}
     for label, extra in runs:
         out = tmp / label.replace(" ", "_").replace("-", "")
-        times[label] = facepuppet("batch", *map(str, clips), "-o", str(out), "--csv", *common, *extra)
+        load[label] = os.getloadavg()[0]
+        times[label], cpus[label] = facepuppet("batch", *map(str, clips), "-o", str(out), "--csv", *common, *extra)
         for c in clips:
             for ext in ("glb", "csv"):
                 if (out / f"{c.stem}.{ext}").read_bytes() != (single_dir / f"{c.stem}.{ext}").read_bytes():
                     raise SystemExit(f"{label}: {c.stem}.{ext} differs from animate's")
 
-    print(f"\n{args.copies} clips, {frames} frames (colour tracker, GLB + CSV); each line one process")
-    print(f"{'run':<34}{'seconds':>9}{'frames/s':>10}{'vs 1 worker':>13}{'vs single':>11}")
+    print(f"\n{args.copies} clips, {frames} frames (colour tracker, GLB + CSV); each line one process "
+          f"(the single runs: one each)")
+    print(f"{'run':<34}{'seconds':>9}{'frames/s':>10}{'CPU s':>8}{'CPU ms/frame':>14}{'cores':>7}"
+          f"{'vs 1 worker':>13}{'vs single':>11}{'load':>7}")
     one = times["batch --workers 1"]
-    print(f"{'sum of single animate runs':<34}{t_single:>9.1f}{frames / t_single:>10.0f}{one / t_single:>12.2f}x"
-          f"{1.0:>10.2f}x")
-    for label, dt in times.items():
-        print(f"{label:<34}{dt:>9.1f}{frames / dt:>10.0f}{one / dt:>12.2f}x{t_single / dt:>10.2f}x")
+    rows = [("sum of single animate runs", t_single, cpu_single), *((k, times[k], cpus[k]) for k in times)]
+    for label, dt, cpu in rows:
+        cpu_text = (f"{'n/a':>8}{'n/a':>14}{'n/a':>7}" if "ray" in label else
+                    f"{cpu:>8.1f}{1000 * cpu / frames:>14.1f}{cpu / dt:>7.2f}")
+        print(f"{label:<34}{dt:>9.1f}{frames / dt:>10.0f}{cpu_text}{one / dt:>12.2f}x{t_single / dt:>10.2f}x"
+              f"{load[label]:>7.2f}")
+    print("CPU s: user + system of the run's processes (Ray's workers are its runtime's: n/a); cores: CPU s / "
+          "seconds; load: the 1-minute load average as the run started")
     print("outputs of every batch: byte for byte those of the single animate runs")
     two = times["batch --workers 2"]
     print(f"bar: 2 workers >= 1.7x 1 worker: {one / two:.2f}x")
     if "batch --engine ray --workers 2" in times:
         ray = times["batch --engine ray --workers 2"]
         print(f"bar: Ray's overhead <= 15 % of the local engine's time: {100 * (ray - two) / two:+.1f} %")
+    shutil.rmtree(tmp, ignore_errors=True)
     print(f"load: {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f} {os.getloadavg()[2]:.2f} "
           f"(1, 5, 15 min) on {os.cpu_count()} cores")
     return 0
