@@ -9,17 +9,20 @@ Timed in the same run, each as its own ``python -m facepuppet`` process (start-u
 
 - the sum of single ``facepuppet animate`` runs, one per clip (the reference);
 - ``facepuppet batch --workers 1``, ``--workers 2`` (local engine) and ``--engine ray --workers 2`` (a local
-  Ray runtime started by the command).
+  Ray runtime started by the command);
+- ``facepuppet batch --workers 1`` pinned to one core (Linux; its worker's thread pools then get one thread):
+  the reference of the scaling over cores, since the unpinned single worker keeps more than one core busy while
+  OpenCV's loops and FFmpeg's decoder run on their other threads.
 
 Printed: seconds, frames per second, the CPU seconds of the run's processes (user + system of every process the
 run waited for: the batch and its local workers; Ray's workers belong to its runtime and are not counted) and
 the cores they kept busy on average (CPU / wall), the speed-up over ``--workers 1`` and over the single runs,
-Ray's overhead against the local engine with the same workers, and the 1-minute load average as each run
-started (other work on the machine slows the wall times, hardly the CPU seconds). Bars: 2 workers >= 1.7x one
-worker (2-core machine); Ray's overhead <= 15 % of the local engine's time. Every batch's outputs are checked
-byte for byte against the single runs'.
+Ray's overhead against the local engine with the same workers, 2 workers on 2 cores against 1 worker on 1 core,
+and the 1-minute load average as each run started (other work on the machine slows the wall times, hardly the
+CPU seconds). Bars: 2 workers >= 1.7x one worker (2-core machine); Ray's overhead <= 15 % of the local engine's
+time. Every batch's outputs are checked byte for byte against the single runs'.
 
-Run: ``python benchmarks/bench_batch.py [--copies 12] [--assets PATH] [--no-ray]``
+Run: ``python benchmarks/bench_batch.py [--copies 12] [--assets PATH] [--no-ray] [--no-one-core]``
 """
 
 from __future__ import annotations
@@ -37,6 +40,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 CLIPS = ("performer_a", "performer_b_exaggerated", "performer_c")
+ONE_CORE = "batch --workers 1, pinned to 1 core"
 
 
 def make_rig(assets: Path, clip: Path, model: str, folder: Path) -> tuple[Path, Path]:
@@ -64,12 +68,14 @@ def children_cpu() -> float:
     return r.ru_utime + r.ru_stime
 
 
-def facepuppet(*args: str) -> tuple[float, float]:
-    """Run ``python -m facepuppet ARGS``; seconds of wall time and CPU seconds of the processes it waited for.
-    Exit codes other than 0 stop the benchmark."""
+def facepuppet(*args: str, cpus: set[int] | None = None) -> tuple[float, float]:
+    """Run ``python -m facepuppet ARGS`` (on the CPUs ``cpus`` only, if given); seconds of wall time and CPU
+    seconds of the processes it waited for. Exit codes other than 0 stop the benchmark."""
     env = {**os.environ, "PYTHONPATH": str(ROOT / "src") + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    pin = None if cpus is None else (lambda: os.sched_setaffinity(0, cpus))
     c0, t0 = children_cpu(), time.perf_counter()
-    done = subprocess.run([sys.executable, "-m", "facepuppet", *args], env=env, capture_output=True, text=True)
+    done = subprocess.run([sys.executable, "-m", "facepuppet", *args], env=env, capture_output=True, text=True,
+                          preexec_fn=pin)          # sets only the CPU affinity of the child
     dt, cpu = time.perf_counter() - t0, children_cpu() - c0
     if done.returncode != 0:
         raise SystemExit(f"facepuppet {' '.join(args)} failed ({done.returncode}):\n{done.stderr[-2000:]}")
@@ -91,6 +97,7 @@ def main(argv=None) -> int:
     ap.add_argument("--copies", type=int, default=12, help="clips in the batch (copies of the shared clips)")
     ap.add_argument("--model", default=None, help="face_landmarker.task (default: assets/models)")
     ap.add_argument("--no-ray", action="store_true", help="leave the Ray engine out")
+    ap.add_argument("--no-one-core", action="store_true", help="leave out the run of 1 worker pinned to 1 core")
     args = ap.parse_args(argv)
     assets = Path(args.assets)
     model = args.model or os.environ.get("FACEPUPPET_FACE_LANDMARKER") or str(assets / "models" /
@@ -117,14 +124,17 @@ def main(argv=None) -> int:
     singles = [facepuppet("animate", str(c), "-o", str(single_dir / f"{c.stem}.glb"),
                           "--csv", str(single_dir / f"{c.stem}.csv"), *common) for c in clips]
     t_single, cpu_single = sum(t for t, _ in singles), sum(c for _, c in singles)
-    runs = [("batch --workers 1", ["--workers", "1"]), ("batch --workers 2", ["--workers", "2"])]
+    runs = [("batch --workers 1", ["--workers", "1"], None), ("batch --workers 2", ["--workers", "2"], None)]
     if not args.no_ray and importlib.util.find_spec("ray") is not None:
-        runs.append(("batch --engine ray --workers 2", ["--engine", "ray", "--workers", "2"]))
+        runs.append(("batch --engine ray --workers 2", ["--engine", "ray", "--workers", "2"], None))
+    if not args.no_one_core and hasattr(os, "sched_setaffinity"):
+        runs.append((ONE_CORE, ["--workers", "1"], {min(os.sched_getaffinity(0))}))
     times, cpus = {}, {}
-    for label, extra in runs:
-        out = tmp / label.replace(" ", "_").replace("-", "")
+    for label, extra, pinned in runs:
+        out = tmp / label.replace(" ", "_").replace("-", "").replace(",", "")
         load[label] = os.getloadavg()[0]
-        times[label], cpus[label] = facepuppet("batch", *map(str, clips), "-o", str(out), "--csv", *common, *extra)
+        times[label], cpus[label] = facepuppet("batch", *map(str, clips), "-o", str(out), "--csv", *common, *extra,
+                                               cpus=pinned)
         for c in clips:
             for ext in ("glb", "csv"):
                 if (out / f"{c.stem}.{ext}").read_bytes() != (single_dir / f"{c.stem}.{ext}").read_bytes():
@@ -149,6 +159,10 @@ def main(argv=None) -> int:
     if "batch --engine ray --workers 2" in times:
         ray = times["batch --engine ray --workers 2"]
         print(f"bar: Ray's overhead <= 15 % of the local engine's time: {100 * (ray - two) / two:+.1f} %")
+    if ONE_CORE in times:
+        print(f"scaling: 2 workers on 2 cores vs 1 worker on 1 core: {times[ONE_CORE] / two:.2f}x; the unpinned "
+              f"1 worker kept {cpus['batch --workers 1'] / one:.2f} cores busy (2 workers can be at most "
+              f"{2 * one / cpus['batch --workers 1']:.2f}x as fast as it)")
     shutil.rmtree(tmp, ignore_errors=True)
     print(f"load: {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f} {os.getloadavg()[2]:.2f} "
           f"(1, 5, 15 min) on {os.cpu_count()} cores")
