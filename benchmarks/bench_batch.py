@@ -20,7 +20,8 @@ the cores they kept busy on average (CPU / wall), the speed-up over ``--workers 
 Ray's overhead against the local engine with the same workers, 2 workers on 2 cores against 1 worker on 1 core,
 and the 1-minute load average as each run started (other work on the machine slows the wall times, hardly the
 CPU seconds). Bars: 2 workers >= 1.7x one worker (2-core machine); Ray's overhead <= 15 % of the local engine's
-time. Every batch's outputs are checked byte for byte against the single runs'.
+time. Every batch's outputs are checked byte for byte against the single runs'. Last, the machine's own
+scaling: a CPU-bound loop in 2 processes at once against 1 (2 CPUs of a virtual machine may share one core).
 
 Run: ``python benchmarks/bench_batch.py [--copies 12] [--assets PATH] [--no-ray] [--no-one-core]``
 """
@@ -80,6 +81,24 @@ def facepuppet(*args: str, cpus: set[int] | None = None) -> tuple[float, float]:
     if done.returncode != 0:
         raise SystemExit(f"facepuppet {' '.join(args)} failed ({done.returncode}):\n{done.stderr[-2000:]}")
     return dt, cpu
+
+
+#: Iterations of the CPU-bound loop of :func:`machine_scaling` (about 2 s of one core).
+SPIN = 30_000_000
+
+
+def machine_scaling() -> float:
+    """How much faster 2 processes spinning a CPU-bound loop finish 2 loops than 1 process does (2.0: two whole
+    cores; less where the 2 CPUs share a physical core or the machine is busy)."""
+    loop = [sys.executable, "-c", f"x = 0\nfor i in range({SPIN}): x += i & 7"]
+    t0 = time.perf_counter()
+    subprocess.run(loop, check=True)
+    one = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    procs = [subprocess.Popen(loop) for _ in range(2)]
+    for p in procs:
+        p.wait()
+    return 2 * one / (time.perf_counter() - t0)
 
 
 def frame_count(path: Path) -> int:
@@ -163,6 +182,8 @@ def main(argv=None) -> int:
         print(f"scaling: 2 workers on 2 cores vs 1 worker on 1 core: {times[ONE_CORE] / two:.2f}x; the unpinned "
               f"1 worker kept {cpus['batch --workers 1'] / one:.2f} cores busy (2 workers can be at most "
               f"{2 * one / cpus['batch --workers 1']:.2f}x as fast as it)")
+    print(f"the machine: 2 processes of a CPU-bound loop go {machine_scaling():.2f}x as fast as 1 (the ceiling "
+          f"of any 2-worker speed-up here)")
     shutil.rmtree(tmp, ignore_errors=True)
     print(f"load: {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f} {os.getloadavg()[2]:.2f} "
           f"(1, 5, 15 min) on {os.cpu_count()} cores")
