@@ -15,15 +15,27 @@ import queue as queue_module
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
-from facepuppet.batch.worker import ClipResult, ClipTask, cached_rig, guard_worker, one_line, run_guarded
+from facepuppet.batch.worker import (
+    ClipResult,
+    ClipTask,
+    cached_rig,
+    fair_share,
+    guard_worker,
+    one_line,
+    run_guarded,
+    share_cores,
+)
 from facepuppet.errors import FacepuppetError
 
-__all__ = ["ENGINES", "run_local", "run_ray", "RAY_MISSING"]
+__all__ = ["ENGINES", "run_local", "run_ray", "RAY_MISSING", "RAY_TASK_CPUS"]
 
 log = logging.getLogger(__name__)
 
 #: Seconds the engines wait for a result before looking at the progress queue again.
 POLL_S = 0.1
+
+#: CPUs a Ray task of one clip reserves (its native thread pools get as many threads, :func:`share_cores`).
+RAY_TASK_CPUS = 1
 
 #: What to say when the Ray engine is asked for without Ray installed.
 RAY_MISSING = '--engine ray needs Ray: pip install "facepuppet[ray]"'
@@ -34,10 +46,11 @@ OnResult = Callable[[ClipResult], None]
 _QUEUE = None        # the progress queue of this worker process (set by _init_local)
 
 
-def _init_local(progress_queue) -> None:
+def _init_local(progress_queue, threads: int) -> None:
     global _QUEUE
     _QUEUE = progress_queue
     guard_worker()
+    share_cores(threads)
 
 
 def _local_task(task: ClipTask) -> ClipResult:
@@ -55,7 +68,8 @@ def _drain(q, on_progress: OnProgress) -> None:
 
 def run_local(tasks: list[ClipTask], *, workers: int, on_progress: OnProgress, on_result: OnResult,
               address: str | None = None) -> None:
-    """Run the tasks in ``workers`` processes of this machine (spawned; each lives for the whole batch).
+    """Run the tasks in ``workers`` processes of this machine (spawned; each lives for the whole batch, with
+    :func:`~facepuppet.batch.worker.fair_share` threads in its native pools).
 
     ``address`` is not used (the Ray engine's).
     """
@@ -66,7 +80,7 @@ def run_local(tasks: list[ClipTask], *, workers: int, on_progress: OnProgress, o
     before = set(multiprocessing.active_children())
     workers = max(1, min(int(workers), len(tasks)))
     with ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_local,
-                             initargs=(progress,)) as pool:
+                             initargs=(progress, fair_share(workers))) as pool:
         futures = {pool.submit(_local_task, t): t for t in tasks}
         ours = [p for p in multiprocessing.active_children() if p not in before]
         try:
@@ -95,12 +109,14 @@ def run_local(tasks: list[ClipTask], *, workers: int, on_progress: OnProgress, o
 def _ray_task(task: ClipTask, progress, rig) -> ClipResult:
     from facepuppet.batch.worker import run_clip
 
+    share_cores(RAY_TASK_CPUS)
     return run_clip(task, progress, rig)
 
 
 def run_ray(tasks: list[ClipTask], *, workers: int, address: str | None, on_progress: OnProgress,
             on_result: OnResult) -> None:
-    """Run the tasks as Ray tasks (one CPU each), each rig put once into the object store.
+    """Run the tasks as Ray tasks (:data:`RAY_TASK_CPUS` each), each rig put once into the object store; a Ray
+    worker process keeps its tracker across the tasks it runs, as a local worker does.
 
     Uses the Ray runtime already started in this process if there is one; else connects to ``address`` (an
     existing cluster, e.g. ``ray://head:10001`` or ``auto``) or starts a local one with ``workers`` CPUs, and
@@ -127,7 +143,7 @@ def run_ray(tasks: list[ClipTask], *, workers: int, address: str | None, on_prog
             if t.rig_sha256 not in rigs:
                 rigs[t.rig_sha256] = ray.put(cached_rig(t.rig, t.rig_sha256))
         progress = Queue()
-        remote = ray.remote(num_cpus=1)(_ray_task)
+        remote = ray.remote(num_cpus=RAY_TASK_CPUS)(_ray_task)
         refs = {remote.remote(t, progress, rigs[t.rig_sha256]): t for t in tasks}
         pending = list(refs)
         while pending:

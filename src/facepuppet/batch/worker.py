@@ -1,9 +1,10 @@
 """The work of one clip, the same in every engine: :func:`run_clip` calls :func:`~facepuppet.pipeline.animate.animate`.
 
-A worker process keeps what does not change from clip to clip (:func:`cached_rig`: each rig loaded once, keyed
-by its content hash); the colour tracker's compiled kernels and the shared landmark backend stay loaded in the
-process by themselves. The tracker object follows one face through one take, so every clip gets a fresh one,
-which is what makes a clip's outputs the same bytes as ``facepuppet animate`` writes.
+A worker process keeps what does not change from clip to clip: each rig (:func:`cached_rig`, loaded once, keyed
+by its content hash), the tracker (:func:`reused_tracker`: one per tracker options and profile contents, reset to
+the start of a take before each clip, so that a clip's outputs are the same bytes as ``facepuppet animate``
+writes), and with them the colour tracker's compiled kernels and the shared landmark backend. Its native thread
+pools are sized to its share of the cores (:func:`share_cores`).
 
 Progress goes out as ``(task index, frames)`` increments through a queue-like object with ``put`` (a
 ``multiprocessing`` queue locally, a Ray queue on a cluster), at most every :data:`PROGRESS_EVERY_S`.
@@ -23,8 +24,8 @@ from dataclasses import dataclass
 from facepuppet._util.interrupt import Interrupted, handle_signals
 from facepuppet.pipeline.animate import AnimateConfig
 
-__all__ = ["ClipTask", "ClipResult", "run_clip", "run_guarded", "cached_rig", "guard_worker", "one_line",
-           "PROGRESS_EVERY_S"]
+__all__ = ["ClipTask", "ClipResult", "run_clip", "run_guarded", "cached_rig", "reused_tracker", "share_cores",
+           "fair_share", "guard_worker", "one_line", "PROGRESS_EVERY_S", "REUSED_BACKENDS"]
 
 log = logging.getLogger(__name__)
 
@@ -34,8 +35,16 @@ PROGRESS_EVERY_S = 0.25
 #: prctl(2) option: the signal this process gets when its parent dies (linux/prctl.h).
 _PR_SET_PDEATHSIG = 1
 
+#: Tracker backends whose tracker a worker keeps across clips: their ``reset()`` sets up every state a new tracker
+#: has. (The MediaPipe landmarker in video mode keeps tracking state and timestamps inside its graph: a reused one
+#: would not see a clip as a new one does, so each clip gets a new tracker of that backend.)
+REUSED_BACKENDS = frozenset({"color"})
+
 #: Rigs loaded in this process: rig sha256 -> Rig.
 _RIGS: dict[str, object] = {}
+
+#: The tracker kept in this process: (backend, profile path, profile digest) -> tracker (the last one asked for).
+_TRACKERS: dict[tuple, object] = {}
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -83,6 +92,61 @@ def cached_rig(path: str, sha256: str):
 
         rig = _RIGS[sha256] = load_rig(path)
     return rig
+
+
+def reused_tracker(options):
+    """This process's tracker for ``options`` (a :class:`~facepuppet.pipeline.tracking.TrackerOptions`), reset to
+    the start of a take; None for a backend not in :data:`REUSED_BACKENDS` (``animate`` then makes its own).
+
+    The tracker is kept for the same backend and profile contents (a profile file rewritten between two clips
+    gives a new tracker); asking for another one closes the one kept.
+    """
+    if options.backend not in REUSED_BACKENDS:
+        return None
+    from facepuppet._util.digest import file_digest
+
+    key = (options.backend, options.profile, file_digest(options.profile) if options.profile else None)
+    tracker = _TRACKERS.get(key)
+    if tracker is None:
+        from facepuppet.pipeline.tracking import make_tracker_for
+
+        for old in _TRACKERS.values():
+            old.close()
+        _TRACKERS.clear()
+        tracker = _TRACKERS[key] = make_tracker_for(options)
+    else:
+        tracker.reset()
+    return tracker
+
+
+def fair_share(workers: int, cores: int | None = None) -> int:
+    """Threads of each of ``workers`` processes sharing ``cores`` (default: the cores this process may run on):
+    ``cores // workers``, at least 1."""
+    if cores is None:
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    return max(1, int(cores) // max(1, int(workers)))
+
+
+def share_cores(threads: int) -> None:
+    """Size this process's native thread pools to ``threads`` (at least 1): OpenCV's and FFmpeg's decoder's.
+
+    A clip's work runs mostly on one thread, but two libraries start pools sized to the whole machine: OpenCV's
+    parallel loops (the colour tracker's face cascade, run on every frame where the face is being found again,
+    splits its work over one thread per core) and FFmpeg's decoder (one frame thread per core, decoding ahead
+    of the tracker). One worker alone so takes more than one core part of the time, and N workers on N cores
+    each start N threads where one fits: the N workers cannot run N times as fast as one. With
+    :func:`fair_share` threads each, N workers take the cores between them. The thread counts change no
+    output: FFmpeg decodes the same frames and the cascade finds the same faces with any number of threads.
+
+    numba's kernels are compiled without ``parallel`` (no pool of their own) and BLAS sees only small matrices,
+    which it multiplies on the calling thread: neither needs a limit. ``OPENCV_FFMPEG_THREADS`` is read when a
+    video is opened, so this is called before the worker's first clip.
+    """
+    import cv2
+
+    threads = max(1, int(threads))
+    os.environ["OPENCV_FFMPEG_THREADS"] = str(threads)
+    cv2.setNumThreads(threads)
 
 
 class _Progress:
@@ -138,7 +202,7 @@ def run_clip(task: ClipTask, queue=None, rig=None) -> ClipResult:
         config = dataclasses.replace(task.config, tracker=dataclasses.replace(task.config.tracker, progress=False))
         out = task.outputs
         anim = animate(task.clip, rig, glb=out.get("glb"), csv=out.get("csv"), preview=out.get("preview"),
-                       config=config, keep_track=False, on_frame=progress)
+                       config=config, keep_track=False, on_frame=progress, tracker=reused_tracker(config.tracker))
     except Exception as e:      # noqa: BLE001 - a failing clip is a row of the report, the batch goes on
         if isinstance(e.__cause__, Interrupted) or isinstance(e.__context__, Interrupted):
             raise           # a stop raised inside compiled code's C wrapper (SystemError): not the clip's fault

@@ -160,7 +160,8 @@ def animate(media: str | os.PathLike | None, rig, *, glb: str | os.PathLike | No
             csv: str | os.PathLike | None = None, preview: str | os.PathLike | None = None,
             track: Track | str | os.PathLike | None = None, config: AnimateConfig | None = None,
             colors: np.ndarray | None = None, keep_track: bool = True, keep_weights: bool = True,
-            max_frames: int | None = None, on_frame: Callable[[int], None] | None = None) -> Animation:
+            max_frames: int | None = None, on_frame: Callable[[int], None] | None = None,
+            tracker=None) -> Animation:
     """Animate a character from a performance video, in one causal pass (:mod:`facepuppet.pipeline.stream`).
 
     Every frame is decoded once, tracked, mapped, smoothed, scaled and handed to every output as it passes;
@@ -190,6 +191,9 @@ def animate(media: str | os.PathLike | None, rig, *, glb: str | os.PathLike | No
         Stop after this many frames.
     on_frame : callable, optional
         Called with each frame's index once every output has taken it (progress of a batch).
+    tracker : Tracker, optional
+        Track with this tracker (of ``config.tracker``'s backend, at the start of a take) instead of a new one
+        made from ``config.tracker``; it is left open (a batch worker's, reused across clips).
 
     Returns
     -------
@@ -230,10 +234,12 @@ def animate(media: str | os.PathLike | None, rig, *, glb: str | os.PathLike | No
 
             source = stack.enter_context(open_media(media))
         fps = float(track.fps) if track is not None else float(source.fps)
-        tracker = None
-        if track is None:
+        if track is not None:
+            tracker = None
+        elif tracker is None:
             tracker = make_tracker_for(config.tracker, media)
             stack.callback(tracker.close)
+        if track is None:
             frames = source_frames(source, max_frames=max_frames)
         else:
             frames = track_frames(track, source, max_frames=max_frames)

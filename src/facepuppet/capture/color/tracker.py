@@ -252,6 +252,12 @@ class ColorTracker:
         curves = self._smoother(curves, result.frame, timestamp_ms)
         return self._features(curves, (w, h), self._turn(timestamp_ms))
 
+    def reset(self) -> None:
+        """Start a new take: every state the tracker keeps from frame to frame is set up again as a new
+        tracker's with the same profile and config (the profile is not read again); the next frame's
+        features are those a new tracker would give."""
+        self.__init__(self.profile, config=self.config)
+
     def close(self) -> None:
         """Let go of the landmark backend (shared by the process's trackers: it stays open until exit)."""
         self._acquirer.landmarker = None

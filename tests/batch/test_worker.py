@@ -1,0 +1,130 @@
+"""A batch worker's reuse across clips: a reset colour tracker sees a new take as a new tracker does, a worker's
+clips written with its kept tracker are `animate`'s bytes; the threads each worker's native pools get."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+from facepuppet.batch import worker
+from facepuppet.batch.worker import ClipTask, fair_share, reused_tracker, run_clip, share_cores
+from facepuppet.pipeline.animate import AnimateConfig, animate
+from facepuppet.pipeline.tracking import TrackerOptions
+
+#: Frames of each shared clip tracked in the tracker test (the second clip's face is found afresh).
+FRAMES = 45
+
+
+def frames_of(path, n: int) -> list[np.ndarray]:
+    from facepuppet.io.frames import open_media
+
+    with open_media(path) as source:
+        return [rgb for _, rgb in zip(range(n), source)]
+
+
+def features(tracker, frames: list[np.ndarray]) -> list:
+    return [tracker.track(rgb, int(round(k * 1000 / 30))) for k, rgb in enumerate(frames)]
+
+
+def same_features(a: list, b: list) -> bool:
+    for fa, fb in zip(a, b, strict=True):
+        if fa.valid != fb.valid:
+            return False
+        for name in ("curves", "rotation", "translation", "points"):
+            if not np.array_equal(getattr(fa, name), getattr(fb, name), equal_nan=True):
+                return False
+    return True
+
+
+def test_a_reset_tracker_tracks_the_next_clip_as_a_new_one(assets):
+    from facepuppet.capture.color.tracker import ColorTracker
+
+    first = frames_of(assets / "video" / "performer_a.mp4", FRAMES)
+    second = frames_of(assets / "video" / "performer_c.mp4", FRAMES)
+    kept = ColorTracker()
+    on_first = features(kept, first)
+    assert sum(f.valid for f in on_first) > FRAMES // 2            # it followed a face: there is state to forget
+    kept.reset()
+    reused = features(kept, second)
+    fresh = features(ColorTracker(), second)
+    assert sum(f.valid for f in fresh) > FRAMES // 2
+    assert same_features(reused, fresh)
+    kept.reset()                                                    # and back to the first clip
+    assert same_features(features(kept, first), on_first)
+
+
+def test_without_reset_the_last_take_would_show(assets):
+    """The test above can fail: a tracker carried on from another clip tracks differently."""
+    from facepuppet.capture.color.tracker import ColorTracker
+
+    first = frames_of(assets / "video" / "performer_a.mp4", FRAMES)
+    second = frames_of(assets / "video" / "performer_c.mp4", FRAMES)
+    carried = ColorTracker()
+    features(carried, first)
+    assert not same_features(features(carried, second), features(ColorTracker(), second))
+
+
+@pytest.fixture(scope="module")
+def two_clips(demo, tmp_path_factory):
+    """Two different clips cut from the demo's performance, its rig and profile."""
+    import cv2
+
+    folder = tmp_path_factory.mktemp("clips")
+    cap = cv2.VideoCapture(str(demo.files["performance.mp4"]))
+    fps, size = cap.get(cv2.CAP_PROP_FPS), (int(cap.get(3)), int(cap.get(4)))
+    frames = [f for ok, f in iter(cap.read, (False, None)) if ok][:100]
+    cap.release()
+    paths = []
+    for name, part in (("early", frames[:40]), ("late", frames[60:100][::-1])):
+        out = cv2.VideoWriter(str(folder / f"{name}.mp4"), cv2.VideoWriter_fourcc(*"mp4v"), fps, size)
+        for f in part:
+            out.write(f)
+        out.release()
+        paths.append(folder / f"{name}.mp4")
+    return paths, demo.files["rig.npz"], demo.files["performer-profile.npz"]
+
+
+def test_a_worker_keeps_its_tracker_and_writes_animates_bytes(two_clips, tmp_path):
+    paths, rig, profile = two_clips
+    config = AnimateConfig(tracker=TrackerOptions(profile=str(profile), progress=False))
+    reference = {}
+    for p in paths:
+        animate(p, rig, glb=tmp_path / f"ref-{p.stem}.glb", csv=tmp_path / f"ref-{p.stem}.csv", config=config)
+        reference[p.stem] = [(tmp_path / f"ref-{p.stem}.{e}").read_bytes() for e in ("glb", "csv")]
+
+    kept = reused_tracker(config.tracker)
+    for i, p in enumerate([*paths, paths[0]]):                        # early, late, early again
+        outputs = {"glb": str(tmp_path / f"{i}.glb"), "csv": str(tmp_path / f"{i}.csv")}
+        task = ClipTask(index=i, clip=str(p), rig=str(rig), rig_sha256="rig", outputs=outputs, config=config)
+        result = run_clip(task)
+        assert result.ok and result.frames == 40, result.error
+        assert [(tmp_path / f"{i}.{e}").read_bytes() for e in ("glb", "csv")] == reference[p.stem]
+        assert reused_tracker(config.tracker) is kept                # one tracker for all the worker's clips
+
+
+def test_other_trackers_are_not_kept():
+    assert reused_tracker(TrackerOptions(backend="mediapipe")) is None
+    assert "mediapipe" not in worker.REUSED_BACKENDS
+
+
+@pytest.mark.parametrize(("workers", "cores", "threads"), [(1, 2, 2), (2, 2, 1), (3, 2, 1), (2, 8, 4), (3, 8, 2)])
+def test_each_worker_gets_its_share_of_the_cores(workers, cores, threads):
+    assert fair_share(workers, cores) == threads
+
+
+def test_share_cores_sizes_opencvs_and_the_decoders_pools(monkeypatch):
+    import cv2
+
+    before = cv2.getNumThreads()
+    monkeypatch.delenv("OPENCV_FFMPEG_THREADS", raising=False)
+    try:
+        share_cores(1)
+        assert cv2.getNumThreads() == 1 and os.environ["OPENCV_FFMPEG_THREADS"] == "1"
+        share_cores(0)                                                # at least one
+        assert cv2.getNumThreads() == 1
+        share_cores(3)
+        assert cv2.getNumThreads() == 3 and os.environ["OPENCV_FFMPEG_THREADS"] == "3"
+    finally:
+        cv2.setNumThreads(before)
