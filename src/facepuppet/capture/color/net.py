@@ -12,7 +12,8 @@ Training (:meth:`ColourNet.fit`) minimises, in float64, the mean squared error o
 decay ``L2_PENALTY`` (Σ w² of both layers and the hidden biases, per sample, so its strength does not shrink
 as frames are added), with SciPy's L-BFGS-B from a seeded start, run until the gradient vanishes (no
 loss-change stop). The decay keeps the minimum isolated and its basin wide, so the fit is deterministic and
-inputs that differ by rounding (two OpenCV builds) give the same network. The fitted layers are kept as plain
+inputs that differ by rounding (two OpenCV builds) give the same Eq. 1 weights (a hidden unit in saturation
+may still drift along a direction that leaves the outputs unchanged). The fitted layers are kept as plain
 arrays, so evaluating needs only numpy and a profile loads without pickle. Training targets come from
 :func:`separating_weights` (see :mod:`facepuppet.capture.color.train`).
 """
