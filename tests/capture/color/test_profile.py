@@ -240,3 +240,57 @@ def test_head_turn_model_round_trip_and_damage(tmp_path, rng):
     np.savez(tmp_path / "bad.npz", **arrays)
     with pytest.raises(FacepuppetError, match="head-turn model"):
         load_profile(tmp_path / "bad.npz")
+
+
+def _known_set(rng, n=300):
+    """Inputs (n, 11) and the Eq. 1 weights a smooth known function of them gives (n, 4)."""
+    x = rng.normal(size=(n, N_INPUTS))
+    raw = np.column_stack([1 + 0.3 * np.tanh(x[:, 0]), 0.5 + 0.2 * x[:, 1] * x[:, 2] / (1 + x[:, 1] ** 2),
+                           -1 - 0.2 * np.tanh(x[:, 3] + x[:, 4]), 0.6 + 0.2 * np.sin(x[:, 9])])
+    return x, constrain_weights(raw)
+
+
+def test_colour_network_fit_is_deterministic_and_learns_a_known_function(rng):
+    x, y = _known_set(rng)
+    a, b = ColourNet.fit(x, y, seed=0), ColourNet.fit(x, y, seed=0)
+    for k, v in a.to_arrays().items():
+        np.testing.assert_array_equal(v, b.to_arrays()[k], err_msg=k)
+    x_new, y_new = _known_set(np.random.default_rng(7), 200)
+    mean_only = np.abs(constrain_weights(y.mean(axis=0)) - y_new).mean()
+    assert np.abs(a.predict(x_new) - y_new).mean() < 0.5 * mean_only
+
+
+def test_colour_network_inputs_perturbed_by_1e_6_give_the_same_weights(rng):
+    x, y = _known_set(rng)
+    a = ColourNet.fit(x, y)
+    b = ColourNet.fit(x + 1e-6 * np.random.default_rng(3).standard_normal(x.shape), y)
+    for k, v in a.to_arrays().items():
+        np.testing.assert_allclose(b.to_arrays()[k], v, atol=1e-3, err_msg=k)
+    x_new = _known_set(np.random.default_rng(8), 200)[0]
+    np.testing.assert_allclose(b.predict(x_new), a.predict(x_new), atol=1e-3)
+
+
+def test_colour_network_on_a_real_clip_is_stable_under_1e_6(labelled_clip, monkeypatch):
+    """train_profile's own training set (performer_c's frames, MediaPipe's curves, relit copies), fitted once
+    as collected and once with every input moved by up to 1e-6: the same Eq. 1 weights within 1e-3."""
+    frames, curves = labelled_clip
+    train = list(range(0, 60, 3))
+    fits = []
+
+    class Collected(Exception):
+        pass
+
+    class Capture(ColourNet):
+        @classmethod
+        def fit(cls, x, y, *, seed=0):
+            fits.append((np.array(x), np.array(y), ColourNet.fit(x, y, seed=seed)))
+            raise Collected
+
+    monkeypatch.setattr(cal, "ColourNet", Capture)
+    with pytest.raises(Collected):
+        train_profile([frames[i] for i in train], np.stack([curves[i] for i in train]), augment=6)
+    x, y, net = fits[0]
+    x_moved = x + 1e-6 * np.random.default_rng(5).uniform(-1, 1, x.shape)
+    moved = ColourNet.fit(x_moved, y)
+    np.testing.assert_allclose(moved.predict(x), net.predict(x), atol=1e-3)
+    assert np.abs(net.predict(x) - y).mean() < 0.5 * np.abs(constrain_weights(y.mean(axis=0)) - y).mean()
