@@ -161,14 +161,14 @@ def main(argv=None) -> int:
 
     print(f"\n{args.copies} clips, {frames} frames (colour tracker, GLB + CSV); each line one process "
           f"(the single runs: one each)")
-    print(f"{'run':<34}{'seconds':>9}{'frames/s':>10}{'CPU s':>8}{'CPU ms/frame':>14}{'cores':>7}"
+    print(f"{'run':<38}{'seconds':>9}{'frames/s':>10}{'CPU s':>8}{'CPU ms/frame':>14}{'cores':>7}"
           f"{'vs 1 worker':>13}{'vs single':>11}{'load':>7}")
     one = times["batch --workers 1"]
     rows = [("sum of single animate runs", t_single, cpu_single), *((k, times[k], cpus[k]) for k in times)]
     for label, dt, cpu in rows:
         cpu_text = (f"{'n/a':>8}{'n/a':>14}{'n/a':>7}" if "ray" in label else
                     f"{cpu:>8.1f}{1000 * cpu / frames:>14.1f}{cpu / dt:>7.2f}")
-        print(f"{label:<34}{dt:>9.1f}{frames / dt:>10.0f}{cpu_text}{one / dt:>12.2f}x{t_single / dt:>10.2f}x"
+        print(f"{label:<38}{dt:>9.1f}{frames / dt:>10.0f}{cpu_text}{one / dt:>12.2f}x{t_single / dt:>10.2f}x"
               f"{load[label]:>7.2f}")
     print("CPU s: user + system of the run's processes (Ray's workers are its runtime's: n/a); cores: CPU s / "
           "seconds; load: the 1-minute load average as the run started")

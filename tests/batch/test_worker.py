@@ -3,6 +3,7 @@ clips written with its kept tracker are `animate`'s bytes; the threads each work
 
 from __future__ import annotations
 
+import itertools
 import os
 
 import numpy as np
@@ -21,7 +22,7 @@ def frames_of(path, n: int) -> list[np.ndarray]:
     from facepuppet.io.frames import open_media
 
     with open_media(path) as source:
-        return [rgb for _, rgb in zip(range(n), source)]
+        return list(itertools.islice(source, n))
 
 
 def features(tracker, frames: list[np.ndarray]) -> list:
