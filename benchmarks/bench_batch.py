@@ -1,9 +1,12 @@
 """Benchmark of `facepuppet batch`: many clips on 1 and 2 local workers and on Ray, beside single `animate` runs.
 
-Setup: a performer profile of the colour tracker and a rig are made from one shared clip (MediaPipe labels,
-``--auto`` key expressions against an ARKit-named character built here from the ICT FaceKit model in
-../shared/assets, never written into the repository); the batch is ``--copies`` copies (default 12) of the
-shared clips, cycled (performer_a, performer_b_exaggerated, performer_c, performer_a, ...).
+Setup: a rig is made from one shared clip (``--auto`` key expressions against an ARKit-named character built
+here from the ICT FaceKit model in ../shared/assets, never written into the repository); the batch is
+``--copies`` copies (default 12) of the shared clips, cycled (performer_a, performer_b_exaggerated, performer_c,
+performer_a, ...). The colour tracker runs with its built-in profile (``--profile builtin``, what ``animate``
+uses without ``--profile``), or with a profile trained on the first clip (MediaPipe labels) and used for every
+clip (``--profile trained``: one performer's profile on other performers, which makes the tracker search for
+the face again on most frames of performer_c: a heavier and more threaded load than a take of one's own).
 
 Timed in the same run, each as its own ``python -m facepuppet`` process (start-up included, as a user runs it):
 
@@ -23,7 +26,8 @@ CPU seconds). Bars: 2 workers >= 1.7x one worker (2-core machine); Ray's overhea
 time. Every batch's outputs are checked byte for byte against the single runs'. Last, the machine's own
 scaling: a CPU-bound loop in 2 processes at once against 1 (2 CPUs of a virtual machine may share one core).
 
-Run: ``python benchmarks/bench_batch.py [--copies 12] [--assets PATH] [--no-ray] [--no-one-core]``
+Run: ``python benchmarks/bench_batch.py [--copies 12] [--profile builtin|trained] [--assets PATH] [--no-ray]
+[--no-one-core]``
 """
 
 from __future__ import annotations
@@ -44,8 +48,9 @@ CLIPS = ("performer_a", "performer_b_exaggerated", "performer_c")
 ONE_CORE = "batch --workers 1, pinned to 1 core"
 
 
-def make_rig(assets: Path, clip: Path, model: str, folder: Path) -> tuple[Path, Path]:
-    """A colour-tracker profile and a rig (ICT FaceKit character, --auto key expressions) from ``clip``."""
+def make_rig(assets: Path, clip: Path, model: str, folder: Path, *, trained: bool) -> tuple[Path | None, Path]:
+    """A rig (ICT FaceKit character, --auto key expressions) from ``clip``, and the colour-tracker profile it
+    was made with (trained on ``clip`` when ``trained``, else None: the built-in one)."""
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     from bench_animate import ict_character
     from facepuppet.pipeline.examples import ExamplesConfig, from_auto
@@ -53,10 +58,13 @@ def make_rig(assets: Path, clip: Path, model: str, folder: Path) -> tuple[Path, 
     from facepuppet.pipeline.rig import fit_rig, save_rig
     from facepuppet.pipeline.tracking import TrackerOptions
 
-    profile = folder / "profile.npz"
-    labels = train_profile_on_media(clip, profile, model=model, progress=False)
+    profile, labels = None, None
+    if trained:
+        profile = folder / "profile.npz"
+        labels = train_profile_on_media(clip, profile, model=model, progress=False)
     character = ict_character(assets)
-    options = TrackerOptions(backend="color", profile=str(profile), model=model, progress=False)
+    options = TrackerOptions(backend="color", profile=None if profile is None else str(profile), model=model,
+                             progress=False)
     performer = from_auto(clip, character.names, config=ExamplesConfig(tracker=options), scores_track=labels)
     rig, _ = fit_rig(performer, character)
     save_rig(folder / "rig.npz", rig)
@@ -116,6 +124,8 @@ def main(argv=None) -> int:
     ap.add_argument("--copies", type=int, default=12, help="clips in the batch (copies of the shared clips)")
     ap.add_argument("--model", default=None, help="face_landmarker.task (default: assets/models)")
     ap.add_argument("--no-ray", action="store_true", help="leave the Ray engine out")
+    ap.add_argument("--profile", choices=("builtin", "trained"), default="builtin",
+                    help="the colour tracker's profile: built-in, or trained on the first clip (module notes)")
     ap.add_argument("--no-one-core", action="store_true", help="leave out the run of 1 worker pinned to 1 core")
     args = ap.parse_args(argv)
     assets = Path(args.assets)
@@ -123,8 +133,9 @@ def main(argv=None) -> int:
                                                                                 "face_landmarker.task")
     tmp = Path(tempfile.mkdtemp(prefix="bench-batch-"))
     t0 = time.perf_counter()
-    profile, rig = make_rig(assets, assets / "video" / f"{CLIPS[0]}.mp4", model, tmp)
-    print(f"setup (profile and rig from {CLIPS[0]}): {time.perf_counter() - t0:.0f} s")
+    profile, rig = make_rig(assets, assets / "video" / f"{CLIPS[0]}.mp4", model, tmp,
+                            trained=args.profile == "trained")
+    print(f"setup (rig from {CLIPS[0]}, profile {args.profile}): {time.perf_counter() - t0:.0f} s")
 
     clips_dir = tmp / "clips"
     clips_dir.mkdir()
@@ -135,7 +146,8 @@ def main(argv=None) -> int:
         shutil.copyfile(src, dst)
         clips.append(dst)
     frames = sum(frame_count(c) for c in clips)
-    common = ["--rig", str(rig), "--profile", str(profile), "--model", model, "--no-progress"]
+    common = ["--rig", str(rig), *(["--profile", str(profile)] if profile else []), "--model", model,
+              "--no-progress"]
 
     single_dir = tmp / "single"
     single_dir.mkdir()
