@@ -11,7 +11,8 @@ k get weight 0 there (``support_tol``), and so do the examples that do not move 
 
 linear in the key-models (morph targets M_k (.) (T_i - T_B), weights w_ik).
 
-Region k's noise ridge divides its weighted residual by N - M, as the global solver. With ``region_share`` s < 1 a region's final weights are support_k (.) ((1 - s) w_0 + s w_k): its own solve
+Region k's noise ridge divides its weighted residual by N - M, as the global solver. With ``region_share``
+s < 1 a region's final weights are support_k (.) ((1 - s) w_0 + s w_k): its own solve
 shrunk towards the global one (both reproduce the neutral face and the examples, so the blend does too).
 
 Guarantees: each region's solver reproduces the neutral face (w_k = 0) and each example (w_k = e_i) exactly,
