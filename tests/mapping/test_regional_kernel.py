@@ -75,3 +75,19 @@ def test_problems_the_kernel_hands_back_are_finished_by_numpy(rng, monkeypatch):
 
     monkeypatch.setattr(_regional, "solve_regions", unsettled)
     np.testing.assert_allclose(m.weights(x), want, atol=1e-12)
+
+
+def test_region_share_blends_towards_the_global_weights_and_keeps_the_guarantees(rng):
+    sb, se, tb, te, inA, *_ = two_patches(rng)
+    own = ExpressionMapper.fit(sb, se, tb, te, method="regional", regions=masks_for(inA))
+    half = ExpressionMapper.fit(sb, se, tb, te, method="regional", regions=masks_for(inA), region_share=0.5)
+    x = frames(sb, se, rng, n=20)
+    w, w1 = half.weights(x), own.weights(x)
+    sup = own.region_support
+    np.testing.assert_allclose(w[:, 0], w1[:, 0], atol=1e-12)
+    np.testing.assert_allclose(w[:, 1:], (0.5 * w1[:, :1] + 0.5 * w1[:, 1:]) * sup[1:], atol=1e-12)
+    np.testing.assert_allclose(half.synthesize(half.weights(sb)), tb, atol=1e-12)
+    for i in range(len(se)):
+        np.testing.assert_allclose(half.synthesize(half.weights(se[i])), te[i], atol=1e-9)
+    with pytest.raises(ValueError, match="region_share must lie in"):
+        ExpressionMapper.fit(sb, se, tb, te, method="regional", region_share=1.5)

@@ -11,9 +11,8 @@ k get weight 0 there (``support_tol``), and so do the examples that do not move 
 
 linear in the key-models (morph targets M_k (.) (T_i - T_B), weights w_ik).
 
-Region k's noise ridge estimates the noise variance from its weighted residual with sum_n omega_kn^2 - M
-degrees of freedom (N - M in the background, as the global solver), i.e. for a coordinate that weighs 1.
-With ``region_share`` s < 1 a region's final weights are support_k (.) ((1 - s) w_0 + s w_k): its own solve
+Region k's noise ridge divides its weighted residual by N - M, as the global solver. With ``region_share``
+s < 1 a region's final weights are support_k (.) ((1 - s) w_0 + s w_k): its own solve
 shrunk towards the global one (both reproduce the neutral face and the examples, so the blend does too).
 
 Guarantees: each region's solver reproduces the neutral face (w_k = 0) and each example (w_k = e_i) exactly,
@@ -57,9 +56,8 @@ class RegionalSolver:
         self.owner = owner
         self.share = float(share)
         self._support_f = self.support.astype(float)
-        # The residual's degrees of freedom in region k: sum_n omega_kn^2 - M (N - M in the background, as the
-        # global solver), so that sigma^2 estimates the noise variance of a coordinate that weighs 1.
-        self.dof = np.maximum((omega**2).sum(axis=1) - H.shape[-1], 1.0)
+        # The residual's degrees of freedom of the noise ridge: N - M in every region, as the global solver.
+        self.dof = np.full(len(H), float(max(G.shape[1] - H.shape[-1], 1)))
         # A_k = diag(ω_k) whiten: the region's view of the (scaled) displacement.
         self._A = None if whiten is None else omega[:, :, None] * whiten[None]
         # The compiled path's layout: every region's d G_k and ||d_k||^2 from one product each.
