@@ -241,3 +241,21 @@ def test_calibrate_interrupted_leaves_nothing(world, tmp_path, signum):
     assert p.returncode == 128 + signum
     assert_one_line(err.decode(), "interrupted")
     assert snapshot([tmp_path, world.folder]) == before
+
+
+@pytest.mark.parametrize("member", ["valid_text", "frame_size_negative", "points_huge", "curves_huge"])
+def test_track_with_impossible_values(capsys, world, tmp_path, member):
+    arrays = dict(np.load(world.track))
+    n = len(arrays["valid"])
+    if member == "valid_text":
+        arrays["valid"] = np.array(["yes"] * n)
+    elif member == "frame_size_negative":
+        arrays["frame_size"] = np.array([-5, 0])
+    elif member == "points_huge":
+        arrays["points"] = np.full(arrays["points"].shape, 1e308)
+    else:
+        arrays["curves"] = np.full(arrays["curves"].shape, -1e300)
+    bad = tmp_path / "t.npz"
+    np.savez(bad, **arrays)
+    run_refused(capsys, animate_args(world, track=bad) + ["-o", tmp_path / "a.glb"], world, folders=[tmp_path],
+                names=["t.npz"])
