@@ -259,3 +259,33 @@ def test_track_with_impossible_values(capsys, world, tmp_path, member):
     np.savez(bad, **arrays)
     run_refused(capsys, animate_args(world, track=bad) + ["-o", tmp_path / "a.glb"], world, folders=[tmp_path],
                 names=["t.npz"])
+
+
+def _skinned_variant(tmp_path, change):
+    from facepuppet.io.scene import glb_bytes, parse_glb
+    from scene_characters import skinned_character
+
+    doc, blob = parse_glb(skinned_character(np.random.default_rng(1))["glb"])
+    change(doc["nodes"])
+    path = tmp_path / "c.glb"
+    path.write_bytes(glb_bytes(doc, blob))
+    return path
+
+
+@pytest.mark.parametrize("case", ["cycle", "self", "two_parents", "child_to_nothing", "pure_cycle"])
+def test_character_whose_nodes_are_not_trees(capsys, world, tmp_path, case):
+    """A node graph with a cycle made animate walk it forever; glTF's nodes must be trees."""
+    def change(nodes):
+        if case == "cycle":
+            nodes[3]["children"].append(2)
+        elif case == "self":
+            nodes[5]["children"] = [5]
+        elif case == "two_parents":
+            nodes[0]["children"].append(6)
+        elif case == "child_to_nothing":
+            nodes[0]["children"].append(999)
+        else:
+            nodes += [{"name": "a", "children": [len(nodes) + 1]}, {"name": "b", "children": [len(nodes)]}]
+
+    path = _skinned_variant(tmp_path, change)
+    run_refused(capsys, _rig_args(world, path, tmp_path / "r.npz"), world, folders=[tmp_path], names=["c.glb"])
