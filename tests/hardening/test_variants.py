@@ -289,3 +289,13 @@ def test_character_whose_nodes_are_not_trees(capsys, world, tmp_path, case):
 
     path = _skinned_variant(tmp_path, change)
     run_refused(capsys, _rig_args(world, path, tmp_path / "r.npz"), world, folders=[tmp_path], names=["c.glb"])
+
+
+@pytest.mark.parametrize("rotation", [[0, 0, 0, 0], [float("nan"), 0, 0, 1]])
+def test_character_node_rotation_that_is_no_rotation(capsys, world, tmp_path, rotation):
+    """A zero quaternion printed NumPy's division warning before the line, which did not name the file."""
+    def change(nodes):
+        nodes[3]["rotation"] = rotation
+
+    path = _skinned_variant(tmp_path, change)
+    run_refused(capsys, _rig_args(world, path, tmp_path / "r.npz"), world, folders=[tmp_path], names=["c.glb"])

@@ -16,6 +16,7 @@ import importlib
 import logging
 import os
 import sys
+import warnings
 
 from facepuppet import __version__
 from facepuppet._util.interrupt import Interrupted, handle_signals
@@ -78,6 +79,8 @@ def _quiet_libraries(verbose: bool) -> None:
     if not verbose:
         os.environ.setdefault("OPENCV_LOG_LEVEL", "ERROR")
         os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
+        # NumPy's floating-point warnings (a damaged file's overflow) would print before the one line
+        warnings.filterwarnings("ignore", category=RuntimeWarning)
 
 
 def main(argv: list[str] | None = None) -> int:
