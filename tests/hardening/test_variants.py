@@ -299,3 +299,14 @@ def test_character_node_rotation_that_is_no_rotation(capsys, world, tmp_path, ro
 
     path = _skinned_variant(tmp_path, change)
     run_refused(capsys, _rig_args(world, path, tmp_path / "r.npz"), world, folders=[tmp_path], names=["c.glb"])
+
+
+@pytest.mark.parametrize("command", ["track", "live"])
+def test_missing_camera_is_one_line(world, tmp_path, command):
+    """OpenCV printed its own "Camera index out of range" error before ours."""
+    argv = (["track", "camera:97", "-o", tmp_path / "t.npz", "--max-frames", "3"] if command == "track" else
+            ["live", "camera:97", "--rig", world.rig, "--no-status", "--max-frames", "3"])
+    r = run_subprocess(argv)
+    assert r.returncode != 0
+    assert_one_line(r.stderr.decode(), "camera:97")
+    assert list(tmp_path.iterdir()) == []
