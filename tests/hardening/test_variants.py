@@ -229,13 +229,15 @@ def test_infinite_smoothing(capsys, world, tmp_path, spec):
 
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGHUP])
 def test_calibrate_interrupted_leaves_nothing(world, tmp_path, signum):
-    write_video(tmp_path / "long.mp4", 2, n=600)
+    write_video(tmp_path / "long.mp4", 2, n=4000)
     before = snapshot([tmp_path, world.folder])
     env = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
     p = subprocess.Popen([sys.executable, "-m", "facepuppet", "calibrate", str(tmp_path / "long.mp4"), "--marks",
                           str(world.marks), "-o", str(tmp_path / "e.npz"), "--no-progress"],
                          stderr=subprocess.PIPE, stdout=subprocess.PIPE, env=env)
-    time.sleep(6)
+    time.sleep(4)
+    if p.poll() is not None:           # tracked the whole clip before the signal: nothing to interrupt
+        pytest.skip(f"calibrate ended before the signal ({p.stderr.read().decode().strip()})")
     p.send_signal(signum)
     _, err = p.communicate(timeout=60)
     assert p.returncode == 128 + signum
