@@ -87,3 +87,17 @@ def test_times_not_increasing_across_chunks_are_refused(tmp_path, rng):
     with pytest.raises(ValueError, match="increasing"):
         write_animated_glb(tmp_path / "a.glb", c, take, 30.0)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_scene_head_without_joint_non_finite_rotation_is_the_rest_pose(tmp_path, rng):
+    (tmp_path / "c.glb").write_bytes(skinned_character(rng, skinned=False, head_joint_name="Nothing")["glb"])
+    source = load_character(tmp_path / "c.glb").source
+    names = ["jawOpen", "eyeBlinkLeft", "mouthSmileLeft"]
+    w, rot, _ = _take(rng, 3)
+    bad = rot.copy()
+    bad[3] = np.nan
+    rest = rot.copy()
+    rest[3] = np.eye(3)
+    write_scene_animation(tmp_path / "nan.glb", source, names, w, 30.0, head_rotation=bad)
+    write_scene_animation(tmp_path / "rest.glb", source, names, w, 30.0, head_rotation=rest)
+    assert (tmp_path / "nan.glb").read_bytes() == (tmp_path / "rest.glb").read_bytes()

@@ -16,6 +16,7 @@ import importlib
 import logging
 import os
 import sys
+import warnings
 
 from facepuppet import __version__
 from facepuppet._util.interrupt import Interrupted, handle_signals
@@ -76,8 +77,10 @@ def error_line(e: BaseException) -> str:
 def _quiet_libraries(verbose: bool) -> None:
     """OpenCV's and FFmpeg's own warnings would print before (and instead of) our one line."""
     if not verbose:
-        os.environ.setdefault("OPENCV_LOG_LEVEL", "ERROR")
+        os.environ.setdefault("OPENCV_LOG_LEVEL", "SILENT")   # its errors are said in our own line
         os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
+        # NumPy's floating-point warnings (a damaged file's overflow) would print before the one line
+        warnings.filterwarnings("ignore", category=RuntimeWarning)
 
 
 def main(argv: list[str] | None = None) -> int:

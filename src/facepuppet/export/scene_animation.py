@@ -76,7 +76,7 @@ def write_scene_animation(path: str | os.PathLike, source: bytes, names: Sequenc
     times : (F,) float, optional
         Increasing key times in seconds.
     head_rotation : (F, 3, 3) float, optional
-        Head rotation per frame in scene space.
+        Head rotation per frame in scene space; a non-finite one is the rest pose.
     pivot : (3,) float, optional
         Where the head turns when there is no head joint (scene space); the origin if None.
     name : str
@@ -326,6 +326,8 @@ def _head_channels(doc: dict, faces: list[int], pivot: np.ndarray):
     inv = np.linalg.inv(world)
 
     def turned(rotation):
+        finite = np.isfinite(rotation).all(axis=(1, 2))
+        rotation = np.where(finite[:, None, None], rotation, np.eye(3))   # a non-finite one: the rest pose
         local = np.zeros((len(rotation), 4, 4))
         local[:, :3, :3] = rotation
         local[:, :3, 3] = pivot - rotation @ pivot

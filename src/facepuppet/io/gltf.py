@@ -73,7 +73,10 @@ def read_gltf(path: str | os.PathLike, *, mesh: str | int | None = None) -> Char
     if not gltf.meshes:
         raise FacepuppetError(f"{path}: no mesh in the file")
     try:
-        instances = _mesh_instances(gltf)
+        try:
+            instances = _mesh_instances(gltf)
+        except ValueError as e:                                       # a node transform no scene can have
+            raise FacepuppetError(f"{path}: damaged glTF ({e})") from e
         if mesh is not None:
             index = _find_mesh(gltf, mesh, path)
             chosen = [(m, mat) for m, mat in instances if m == index] or [(index, np.eye(4))]
@@ -355,8 +358,13 @@ def _node_matrix(node) -> np.ndarray:
 
 
 def quaternion_matrix(q) -> np.ndarray:
-    """(3, 3) rotation of a glTF quaternion (x, y, z, w), normalised first."""
-    x, y, z, w = np.asarray(q, dtype=np.float64) / np.linalg.norm(q)
+    """(3, 3) rotation of a glTF quaternion (x, y, z, w), normalised first; ValueError for a quaternion of zero
+    or non-finite length (no rotation)."""
+    q = np.asarray(q, dtype=np.float64)
+    norm = float(np.linalg.norm(q)) if q.shape == (4,) else 0.0
+    if not (np.isfinite(norm) and norm > 0):
+        raise ValueError(f"rotation {q.tolist()} is not a quaternion of finite, non-zero length")
+    x, y, z, w = q / norm
     return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
                      [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
                      [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])

@@ -78,6 +78,7 @@ def parse_glb(data: bytes, label: str = "GLB") -> tuple[dict, bytes | None]:
     if not isinstance(doc, dict):
         raise FacepuppetError(f"{label}: GLB has no JSON chunk")
     _check_depth(doc, label)
+    _check_nodes(doc, label)
     return doc, blob
 
 
@@ -87,6 +88,34 @@ MAX_JSON_DEPTH = 64
 
 def _reason(e: Exception) -> str:
     return "nested too deeply" if isinstance(e, RecursionError) else str(e)
+
+
+def _check_nodes(doc: dict, label: str) -> None:
+    """FacepuppetError naming ``label`` unless the nodes form trees, as glTF requires: every child index names a
+    node, no node has two parents, no node is its own ancestor (walking such a graph would never end)."""
+    nodes = doc.get("nodes") or []
+    if not isinstance(nodes, list):
+        raise FacepuppetError(f"{label}: glTF nodes is not a list")
+    parent: dict[int, int] = {}
+    for i, node in enumerate(nodes):
+        children = node.get("children") or [] if isinstance(node, dict) else None
+        if not isinstance(children, list):
+            raise FacepuppetError(f"{label}: node {i} is damaged (its children are not a list)")
+        for c in children:
+            if not isinstance(c, int) or isinstance(c, bool) or not 0 <= c < len(nodes):
+                raise FacepuppetError(f"{label}: node {i} has a child {c!r} that is no node")
+            if c in parent:
+                raise FacepuppetError(f"{label}: node {c} has two parents (nodes {parent[c]} and {i})")
+            parent[c] = i
+    for start in parent:
+        seen, at = {start}, parent[start]
+        while at in parent:
+            if at in seen:
+                raise FacepuppetError(f"{label}: node {start} is its own ancestor (the node tree has a cycle)")
+            seen.add(at)
+            at = parent[at]
+        if at == start:
+            raise FacepuppetError(f"{label}: node {start} is its own ancestor (the node tree has a cycle)")
 
 
 def _check_depth(doc, label: str) -> None:
@@ -136,6 +165,7 @@ def load_scene(path: str | os.PathLike) -> Scene:
         if not isinstance(doc, dict):
             raise FacepuppetError(f"{path}: glTF JSON is not an object")
         _check_depth(doc, str(path))
+        _check_nodes(doc, str(path))
     from facepuppet.io.compressed import COMPRESSION, decode_compressed
 
     buffers = doc.get("buffers") or []

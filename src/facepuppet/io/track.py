@@ -26,6 +26,10 @@ TRACK_KEYS = ("fps", "frame_size", "valid", "curves", "curve_names", "points", "
 TRACK_EXTRAS = ("blendshapes", "blendshape_names")
 #: Where the track came from (optional; files without them load with ``media = profile_hash = None``).
 PROVENANCE_KEYS = ("media_size", "media_frames", "media_hash", "profile_hash", "times")
+#: Largest magnitude a track's arrays may hold: pixels (curves, frame_size), centimetres (points,
+#: translation), rotation matrix entries (1 plus rounding), flags; beyond it a file is damaged.
+_MAX_VALUE = {"curves": 1e7, "frame_size": 1e6, "points": 1e6, "translation": 1e6, "rotation": 1.5,
+              "valid": 1e18}
 #: Frame rates a track may have, frames per second (lowest, highest).
 FPS_RANGE = (0.1, 1000.0)
 
@@ -160,9 +164,14 @@ def load_track(path: str | os.PathLike) -> Track:
         fps = check_fps(arrays["fps"], f"{path}")
         if arrays["fps"].size != 1 or arrays["frame_size"].shape != (2,) or arrays["valid"].ndim != 1:
             raise ValueError("fps, frame_size or valid has the wrong shape")
-        for key in ("curves", "points", "rotation", "translation"):
-            if arrays[key].dtype.kind not in "fiu":
-                raise ValueError(f"{key} does not hold numbers")
+        for key in ("curves", "points", "rotation", "translation", "frame_size", "valid"):
+            if arrays[key].dtype.kind not in ("biu" if key == "valid" else "fiu"):
+                raise ValueError(f"{key} does not hold {'flags' if key == 'valid' else 'numbers'}")
+            finite = arrays[key][np.isfinite(arrays[key])] if arrays[key].dtype.kind == "f" else arrays[key]
+            if finite.size and np.abs(finite).max() > _MAX_VALUE[key]:
+                raise ValueError(f"{key} holds values beyond ±{_MAX_VALUE[key]:g}")
+        if (arrays["frame_size"] < 0).any():
+            raise ValueError(f"frame_size must not be negative, got {arrays['frame_size'].tolist()}")
         return Track(
             fps=fps,
             frame_size=arrays["frame_size"].astype(int),
