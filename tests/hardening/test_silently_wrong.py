@@ -148,3 +148,11 @@ def test_negative_mark_time(capsys, world, tmp_path):
     marks.write_text("-1s,neutral\n", encoding="utf-8")
     run_refused(capsys, ["calibrate", world.video, "--marks", marks, "-o", tmp_path / "e.npz", "--no-progress"],
                 world, folders=[tmp_path], names=["m.csv", "negative"])
+
+
+@pytest.mark.parametrize("gains", [["2", "3"], ["2,3"], ["jawOpen=2", "jawOpen=3"]])
+def test_a_gain_given_twice(capsys, world, tmp_path, gains):
+    args = [*animate_args(world), "-o", tmp_path / "a.glb"]
+    for g in gains:
+        args += ["--gain", g]
+    run_refused(capsys, args, world, folders=[tmp_path], names=["--gain"])

@@ -72,10 +72,11 @@ class GainConfig:
 def parse_gain(specs: Iterable[str] | None) -> GainConfig:
     """Build a GainConfig from CLI values such as ``["1.2"]``, ``["jawOpen=1.5", "eyeBlink_L=0.8"]``.
 
-    A bare number sets the global gain; ``NAME=VALUE`` the gain of one key-model. Comma-separated lists are
-    accepted too (``"1.1,jawOpen=1.5"``).
+    A bare number sets the global gain; ``NAME=VALUE`` the gain of one key-model or region. Comma-separated
+    lists are accepted too (``"1.1,jawOpen=1.5"``). A second global gain, or a second gain for the same name,
+    is an error (no value silently wins over another).
     """
-    gain, per_key = 1.0, {}
+    gain, per_key, seen_global = 1.0, {}, False
     for spec in specs or ():
         for part in str(spec).split(","):
             part = part.strip()
@@ -89,9 +90,13 @@ def parse_gain(specs: Iterable[str] | None) -> GainConfig:
             if sep:
                 if not name.strip():
                     raise ValueError(f"--gain: empty key-model name in {part!r}")
+                if name.strip() in per_key:
+                    raise ValueError(f"--gain {name.strip()}: given twice ({per_key[name.strip()]:g} and {g:g})")
                 per_key[name.strip()] = g
             else:
-                gain = g
+                if seen_global:
+                    raise ValueError(f"--gain: two overall gains given ({gain:g} and {g:g}); give one")
+                gain, seen_global = g, True
     return GainConfig(gain=gain, per_key=per_key)
 
 
