@@ -8,14 +8,15 @@ eyes, eyelids, nostrils, a mouth, and so on)". Ours (:data:`SUBAREAS`): the mean
 (both cheeks, forehead, both eyes, both upper lids, nostrils, mouth) and, so that the network sees the colour
 of the light and not only its strength, the red and blue chromaticity R/(R+G+B), B/(R+G+B) of the cheeks.
 
-Training (:meth:`ColourNet.fit`) minimises, in float64, the mean squared error of the outputs plus a weight
-decay ``L2_PENALTY`` (Σ w² of both layers and the hidden biases, per sample, so its strength does not shrink
-as frames are added), with SciPy's L-BFGS-B from a seeded start, run until the gradient vanishes (no
-loss-change stop). The decay keeps the minimum isolated and its basin wide, so the fit is deterministic and
-inputs that differ by rounding (two OpenCV builds) give the same Eq. 1 weights (a hidden unit in saturation
-may still drift along a direction that leaves the outputs unchanged). The fitted layers are kept as plain
-arrays, so evaluating needs only numpy and a profile loads without pickle. Training targets come from
-:func:`separating_weights` (see :mod:`facepuppet.capture.color.train`).
+Training (:meth:`ColourNet.fit`) averages :data:`N_RESTARTS` 11-10-4 networks fitted from seeded starts. Each
+(:func:`fit_member`) minimises, in float64, the mean squared error of the outputs plus a weight decay
+``L2_PENALTY`` (Σ w² of both layers and the hidden biases, per sample, so its strength does not shrink as frames
+are added), with SciPy's L-BFGS-B run until the gradient vanishes (no loss-change stop). The decay keeps each
+minimum isolated and its basin wide, so the fit is deterministic and inputs that differ by rounding (two OpenCV
+builds) give the same Eq. 1 weights (a hidden unit in saturation may still drift along a direction that leaves
+the outputs unchanged); the average keeps the weights predicted for unseen crops from hanging on one start.
+The fitted layers are kept as plain arrays, so evaluating needs only numpy and a profile loads without pickle.
+Training targets come from :func:`separating_weights` (see :mod:`facepuppet.capture.color.train`).
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ from facepuppet.capture.color.face import CROP_EXTENT
 log = logging.getLogger(__name__)
 
 __all__ = ["SUBAREAS", "N_INPUTS", "WEIGHT_SCALE", "ColourNet", "subarea_means", "separating_weights",
-           "constrain_weights", "fisher_separation"]
+           "constrain_weights", "fisher_separation", "fit_member", "N_RESTARTS"]
 
 #: Sub-areas in face units (x0, y0, x1, y1); the first nine give mean luma, "cheeks" also the chromaticity.
 SUBAREAS: dict[str, tuple[float, float, float, float]] = {
@@ -54,9 +55,10 @@ _LUMA = np.array([0.299, 0.587, 0.114], dtype=np.float32)
 # Tuning constants            unit        what it does
 N_HIDDEN = 10                 # units       hidden sigmoid units of the network (§3.1: 11-10-4)
 MIN_VALUE_WEIGHT = 0.05       # fraction    of WEIGHT_SCALE the value weight w3 stays below zero by
-L2_PENALTY = 1e-3             # 1/sample    weight decay 0.5 L2_PENALTY Σ w² (no output bias) + 0.5 mean Σ (out − y)²
+L2_PENALTY = 3e-4             # 1/sample    weight decay 0.5 L2_PENALTY Σ w² (no output bias) + 0.5 mean Σ (out − y)²
 MAX_ITERATIONS = 20000        # steps       most L-BFGS iterations of the training
 GRADIENT_TOLERANCE = 1e-9     # -           the training stops when every gradient component is below this
+N_RESTARTS = 5                # networks    seeded 11-10-4 fits whose outputs are averaged
 MIN_INPUT_STD = 1e-3          # -           floor of an input's standard deviation in the normalisation
 
 
@@ -148,9 +150,10 @@ class ColourNet:
 
     Attributes
     ----------
-    w0 : (11, 10) float
-    b0 : (10,) float
-    w1 : (10, 4) float
+    w0 : (11, H) float
+    b0 : (H,) float
+    w1 : (H, 4) float
+        H = 10 per averaged 11-10-4 network (:data:`N_RESTARTS` of them; a multiple of 10 is read).
     b1 : (4,) float
     x_mean, x_std : (11,) float
         Input standardisation.
@@ -175,7 +178,11 @@ class ColourNet:
     @classmethod
     def from_arrays(cls, arrays: dict[str, np.ndarray]) -> ColourNet:
         """Rebuild from :meth:`to_arrays`; raises ValueError naming a missing or misshapen array."""
-        shapes = {"w0": (N_INPUTS, N_HIDDEN), "b0": (N_HIDDEN,), "w1": (N_HIDDEN, 4), "b1": (4,), "x_mean": (N_INPUTS,),
+        hidden = int(np.shape(arrays["b0"])[0]) if "b0" in arrays and np.ndim(arrays["b0"]) == 1 else N_HIDDEN
+        if hidden < N_HIDDEN or hidden % N_HIDDEN:
+            raise ValueError(f"colour network: array 'b0' must hold a multiple of {N_HIDDEN} hidden units, got "
+                             f"{hidden}")
+        shapes = {"w0": (N_INPUTS, hidden), "b0": (hidden,), "w1": (hidden, 4), "b1": (4,), "x_mean": (N_INPUTS,),
                   "x_std": (N_INPUTS,)}
         out = {}
         for k, shape in shapes.items():
@@ -189,45 +196,57 @@ class ColourNet:
 
     @classmethod
     def fit(cls, x: np.ndarray, y: np.ndarray, *, seed: int = 0) -> ColourNet:
-        """Train on inputs (N, 11) and target weights (N, 4): 10 logistic units, weight decay, L-BFGS-B.
-
-        Deterministic: the start is drawn from ``seed`` (input weights N(0, 1/11), output weights N(0, 1/10),
-        hidden biases 0, output biases the targets' mean), and the fit runs to a vanishing gradient.
+        """Train on inputs (N, 11) and target weights (N, 4): the average of :data:`N_RESTARTS` 11-10-4 networks
+        (:func:`fit_member`, seeds ``seed``, ``seed + 1``, ...), kept as one network whose hidden layer holds
+        theirs side by side and whose output layer is the mean of theirs (the same outputs as averaging them).
         """
-        from scipy.optimize import minimize
-
         x = np.asarray(x, dtype=np.float64)
         y = np.asarray(y, dtype=np.float64)
         if x.ndim != 2 or x.shape[1] != N_INPUTS or y.shape != (len(x), 4) or len(x) < 1:
             raise ValueError(f"x must be (N, {N_INPUTS}) and y (N, 4), got {x.shape} and {y.shape}")
         mean, std = x.mean(axis=0), np.maximum(x.std(axis=0), MIN_INPUT_STD)
-        z = (x - mean) / std
-        n = len(z)
-        sizes = (N_INPUTS * N_HIDDEN, N_HIDDEN, N_HIDDEN * 4, 4)
-        cuts = np.cumsum(sizes)[:-1]
-
-        def unpack(theta):
-            w0, b0, w1, b1 = np.split(theta, cuts)
-            return w0.reshape(N_INPUTS, N_HIDDEN), b0, w1.reshape(N_HIDDEN, 4), b1
-
-        def loss_and_gradient(theta):
-            w0, b0, w1, b1 = unpack(theta)
-            h = 1.0 / (1.0 + np.exp(-(z @ w0 + b0)))
-            e = (h @ w1 + b1 - y) / n
-            loss = 0.5 * n * float(np.sum(e * e)) + 0.5 * L2_PENALTY * float(np.sum(w0 * w0) + np.sum(b0 * b0)
-                                                                              + np.sum(w1 * w1))
-            dh = (e @ w1.T) * h * (1.0 - h)
-            grad = np.concatenate([(z.T @ dh + L2_PENALTY * w0).ravel(), dh.sum(axis=0) + L2_PENALTY * b0,
-                                   (h.T @ e + L2_PENALTY * w1).ravel(), e.sum(axis=0)])
-            return loss, grad
-
-        rng = np.random.default_rng(seed)
-        start = np.concatenate([rng.normal(size=sizes[0]) / np.sqrt(N_INPUTS), np.zeros(N_HIDDEN),
-                                rng.normal(size=sizes[2]) / np.sqrt(N_HIDDEN), y.mean(axis=0)])
-        result = minimize(loss_and_gradient, start, jac=True, method="L-BFGS-B",
-                          options={"maxiter": MAX_ITERATIONS, "maxfun": 2 * MAX_ITERATIONS, "ftol": 0.0,
-                                   "gtol": GRADIENT_TOLERANCE, "maxcor": 30})
-        if not result.success:
-            log.warning("colour network: the fit stopped before its gradient vanished (%s)", result.message)
-        w0, b0, w1, b1 = unpack(result.x)
+        members = [fit_member((x - mean) / std, y, seed + k) for k in range(N_RESTARTS)]
+        w0 = np.concatenate([m[0] for m in members], axis=1)
+        b0 = np.concatenate([m[1] for m in members])
+        w1 = np.concatenate([m[2] for m in members]) / N_RESTARTS
+        b1 = np.mean([m[3] for m in members], axis=0)
         return cls(w0, b0, w1, b1, mean, std)
+
+
+def fit_member(z: np.ndarray, y: np.ndarray, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """One 11-10-4 network on standardised inputs ``z`` (N, 11) and targets ``y`` (N, 4): (w0, b0, w1, b1).
+
+    Minimises 0.5 mean Σ (out − y)² + 0.5 ``L2_PENALTY`` Σ w² (all weights and the hidden biases) with SciPy's
+    L-BFGS-B until the gradient vanishes; deterministic: the start is drawn from ``seed`` (input weights
+    N(0, 1/11), output weights N(0, 1/10), hidden biases 0, output biases the targets' mean).
+    """
+    from scipy.optimize import minimize
+
+    n = len(z)
+    sizes = (N_INPUTS * N_HIDDEN, N_HIDDEN, N_HIDDEN * 4, 4)
+    cuts = np.cumsum(sizes)[:-1]
+
+    def unpack(theta):
+        w0, b0, w1, b1 = np.split(theta, cuts)
+        return w0.reshape(N_INPUTS, N_HIDDEN), b0, w1.reshape(N_HIDDEN, 4), b1
+
+    def loss_and_gradient(theta):
+        w0, b0, w1, b1 = unpack(theta)
+        h = 1.0 / (1.0 + np.exp(-(z @ w0 + b0)))
+        e = (h @ w1 + b1 - y) / n
+        decay = float(np.sum(w0 * w0) + np.sum(b0 * b0) + np.sum(w1 * w1))
+        loss = 0.5 * n * float(np.sum(e * e)) + 0.5 * L2_PENALTY * decay
+        dh = (e @ w1.T) * h * (1.0 - h)
+        grad = np.concatenate([(z.T @ dh + L2_PENALTY * w0).ravel(), dh.sum(axis=0) + L2_PENALTY * b0,
+                               (h.T @ e + L2_PENALTY * w1).ravel(), e.sum(axis=0)])
+        return loss, grad
+
+    rng = np.random.default_rng(seed)
+    start = np.concatenate([rng.normal(size=sizes[0]) / np.sqrt(N_INPUTS), np.zeros(N_HIDDEN),
+                            rng.normal(size=sizes[2]) / np.sqrt(N_HIDDEN), y.mean(axis=0)])
+    result = minimize(loss_and_gradient, start, jac=True, method="L-BFGS-B",
+                      options={"maxiter": MAX_ITERATIONS, "maxfun": 2 * MAX_ITERATIONS, "ftol": 0.0,
+                               "gtol": GRADIENT_TOLERANCE, "maxcor": 30})
+    if not result.success:
+        log.warning("colour network: the fit stopped before its gradient vanished (%s)", result.message)
+    return unpack(result.x)
