@@ -12,6 +12,7 @@ import numpy as np
 import pygltflib
 import pytest
 
+from blender_python import blender  # noqa: F401  (fixture)
 from facepuppet.capture.curves import POINT_NAMES
 from facepuppet.cli import main
 from facepuppet.errors import FacepuppetError
@@ -42,7 +43,8 @@ def grid_character() -> Character:
         bump = np.where(r2 < 1, (1 - r2) ** 2, 0.0)
         targets.append(base + 0.2 * bump[:, None] * np.array(direction))
     cols = 25
-    faces = np.array([[r * cols + c, r * cols + c + 1, (r + 1) * cols + c] for r in range(14) for c in range(24)])
+    corner = [r * cols + c for r in range(14) for c in range(24)]
+    faces = np.array([tri for k in corner for tri in ([k, k + 1, k + cols], [k + 1, k + cols + 1, k + cols])])
     return Character(base, np.array(targets), tuple(k[0] for k in KEYS), faces, "grid")
 
 
@@ -154,6 +156,20 @@ def test_regional_glb_of_the_pipeline_plays_in_threejs(tmp_path, rng, regional, 
     (at8,) = out["samples"]
     np.testing.assert_allclose(at8["influences"], anim.weights[8], atol=1e-6)
     np.testing.assert_allclose(at8["positions"], formula(rig, w[8:9])[0], atol=1e-5)
+
+
+def test_regional_glb_of_the_pipeline_plays_in_blender(tmp_path, rng, regional, blender):  # noqa: F811
+    perf, _, rig = regional
+    track = make_track(frames(perf, rng))
+    cfg = AnimateConfig(smoothing=NO_SMOOTHING, head_rotation=False)
+    anim = animate(None, rig, glb=tmp_path / "out.glb", track=track, config=cfg)
+    w = anim.weights.reshape(-1, len(rig.region_names), len(KEYS))
+    out = blender.load(tmp_path / "out.glb", int(round(track.fps)), [8])
+    (mesh,) = out["meshes"]
+    assert mesh["shape_keys"] == ["Basis", *rig.channel_names]
+    (at8,) = out["samples"]
+    z_up = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])  # glTF's (x, y, z) -> (x, -z, y)
+    np.testing.assert_allclose(at8["positions"][mesh["name"]], formula(rig, w[8:9])[0] @ z_up.T, atol=1e-5)
 
 
 def test_region_gain_on_a_regional_rig(rng, regional):
