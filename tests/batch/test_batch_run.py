@@ -78,6 +78,28 @@ def same_as_animate(clips, out: Path, names) -> None:
                 f"{name}.{ext} differs from animate's"
 
 
+def children(pid: int) -> list[int]:
+    """Processes whose parent is ``pid`` (Linux's /proc; empty elsewhere)."""
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            found.append(int(stat.parent.name))
+    return found
+
+
+def alive(pid: int) -> bool:
+    """Whether ``pid`` is a process that has not ended (a zombie counts as ended)."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state not in ("Z", "X")
+
+
 def leftovers(out: Path) -> list[str]:
     return sorted(p.name for p in out.iterdir() if p.name.startswith("."))
 
@@ -175,9 +197,14 @@ def test_killed_batch_reruns_each_clip_once(clips, tmp_path, sig):
                 break
         time.sleep(0.05)
     assert proc.poll() is None, "the batch ended before it could be killed"
+    workers = children(proc.pid)
     proc.send_signal(sig)
     proc.wait(timeout=60)
     time.sleep(1.0)                 # the worker, told by its parent's death, removes its temporary files
+    end = time.monotonic() + 30
+    while any(alive(w) for w in workers) and time.monotonic() < end:
+        time.sleep(0.2)
+    assert not [w for w in workers if alive(w)], "a worker lived on after its batch was killed"
     first = report(out)
     done_first = {n for n, r in first.items() if r["status"] == "done"}
     assert done_first and done_first != set(names)

@@ -18,6 +18,7 @@ import logging
 import os
 import signal
 import sys
+import threading
 import time
 from dataclasses import dataclass
 
@@ -25,12 +26,18 @@ from facepuppet._util.interrupt import Interrupted, handle_signals
 from facepuppet.pipeline.animate import AnimateConfig
 
 __all__ = ["ClipTask", "ClipResult", "run_clip", "run_guarded", "cached_rig", "reused_tracker", "share_cores",
-           "fair_share", "guard_worker", "one_line", "PROGRESS_EVERY_S", "REUSED_BACKENDS"]
+           "fair_share", "guard_worker", "one_line", "PROGRESS_EVERY_S", "PARENT_WATCH_S", "PARENT_GONE_REPEAT_S",
+           "REUSED_BACKENDS"]
 
 log = logging.getLogger(__name__)
 
 #: Seconds between two progress messages of a worker.
 PROGRESS_EVERY_S = 0.25
+
+#: Seconds between two looks of a worker's watchdog at its parent process, and between two SIGTERMs it sends
+#: once the parent is gone (long enough for a clip to stop and remove its temporary files after the first).
+PARENT_WATCH_S = 1.0
+PARENT_GONE_REPEAT_S = 10.0
 
 #: prctl(2) option: the signal this process gets when its parent dies (linux/prctl.h).
 _PR_SET_PDEATHSIG = 1
@@ -204,8 +211,9 @@ def run_clip(task: ClipTask, queue=None, rig=None) -> ClipResult:
         anim = animate(task.clip, rig, glb=out.get("glb"), csv=out.get("csv"), preview=out.get("preview"),
                        config=config, keep_track=False, on_frame=progress, tracker=reused_tracker(config.tracker))
     except Exception as e:      # noqa: BLE001 - a failing clip is a row of the report, the batch goes on
-        if isinstance(e.__cause__, Interrupted) or isinstance(e.__context__, Interrupted):
-            raise           # a stop raised inside compiled code's C wrapper (SystemError): not the clip's fault
+        stop = next((x for x in (e.__cause__, e.__context__) if isinstance(x, Interrupted)), None)
+        if stop is not None:    # a stop raised inside compiled code's C wrapper (SystemError): not the clip's fault
+            raise stop from None
         progress.flush()
         log.debug("clip %s failed", task.clip, exc_info=True)
         return ClipResult(index=task.index, ok=False, frames=progress.count, seconds=time.perf_counter() - t0,
@@ -227,8 +235,11 @@ def guard_worker() -> None:
 
     SIGTERM between clips ends the process; during a clip (:func:`run_guarded`) it stops the clip at the next
     frame (:mod:`facepuppet._util.interrupt`), whose temporary outputs are removed on the way out. On Linux the
-    process also gets SIGTERM when its parent dies, however it died. Ctrl-C is left to the batch, which ends
-    its workers.
+    process also gets SIGTERM when its parent dies, however it died; on every system a watchdog thread looks at
+    the parent every :data:`PARENT_WATCH_S` seconds and sends this process SIGTERM once the parent is gone, and
+    again every :data:`PARENT_GONE_REPEAT_S` seconds (a stop that a clip's unwinding swallowed is asked again:
+    an idle worker whose batch died ends, never waits for work forever). Ctrl-C is left to the batch, which
+    ends its workers.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if sys.platform.startswith("linux"):
@@ -240,6 +251,18 @@ def guard_worker() -> None:
         parent = multiprocessing.parent_process()
         if parent is not None and os.getppid() != parent.pid:      # it died before the signal was asked for
             _die_by_sigterm()
+    parent_pid = os.getppid()
+    threading.Thread(target=_watch_parent, args=(parent_pid,), name="facepuppet-parent-watch", daemon=True).start()
+
+
+def _watch_parent(parent_pid: int) -> None:
+    """Send this process SIGTERM once its parent ``parent_pid`` is gone (looked at every :data:`PARENT_WATCH_S`
+    seconds), and again every :data:`PARENT_GONE_REPEAT_S` seconds while it lives on."""
+    while os.getppid() == parent_pid:
+        time.sleep(PARENT_WATCH_S)
+    while True:
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(PARENT_GONE_REPEAT_S)
 
 
 def run_guarded(task: ClipTask, queue=None, rig=None) -> ClipResult:
