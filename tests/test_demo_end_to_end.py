@@ -14,10 +14,10 @@ from facepuppet.errors import FacepuppetError
 from gltf_validator import gltf_validator  # noqa: F401  (fixture)
 
 ERROR_BAR = 0.5
-#: Bound on the demo's error with the colour tracker on smaller, shorter videos (5 s, 256 px, seed 0; measured
-#: 0.48 with OpenCV 5.0 and 0.51 with 5.1 on 2026-11-30; 0.58 before the eyes' shape models, 0.86 before any,
-#: 1.03 before the calibration's head-motion span).
-COLOUR_BOUND = 0.65
+#: Bound on the demo's error with the colour tracker on smaller, shorter videos (5 s, 256 px, seed 0; it measures
+#: 0.40 with OpenCV 5.1: the margin is for other OpenCV builds' rounding, which the colour network's
+#: deterministic fit keeps from moving its weights).
+COLOUR_BOUND = 0.5
 
 
 def test_demo_meets_the_error_bar(demo):
@@ -97,8 +97,8 @@ def test_demo_runs_with_the_colour_tracker(tmp_path):
     """The whole chain with the colour tracker on a smaller face and a quicker performance than the default.
 
     The default demo (the colour tracker, 320 px) meets the bar (:data:`ERROR_BAR`, test above); at 256 px with
-    all 13 key expressions in 5 s this run measured 0.48-0.51, with curves 0.6 px from the true ones (the
-    default demo at 5 s: 0.38-0.40). The bound catches the colour path getting worse on harder footage.
+    all 13 key expressions in 5 s this run measures about 0.40, with curves 0.6 px from the true ones. The bound
+    catches the colour path getting worse on harder footage.
     """
     from facepuppet.demo.run import DemoConfig, run_demo
     from facepuppet.io.track import load_track
