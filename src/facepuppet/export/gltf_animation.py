@@ -17,7 +17,7 @@ import os
 import numpy as np
 
 from facepuppet import __version__
-from facepuppet.export.take import TakeRows
+from facepuppet.export.take import TakeRows, as_take
 from facepuppet.io.character import Character
 from facepuppet.io.glb import GltfBuilder
 from facepuppet.io.gltf import add_character
@@ -55,27 +55,7 @@ def write_animated_glb(path: str | os.PathLike, character: Character, weights: n
         Each frame's time in seconds, increasing (a live recording with dropped frames); ``f / fps`` if None.
     """
     m = len(character.names)
-    if not (np.isfinite(fps) and fps > 0):
-        raise ValueError(f"fps must be a positive number, got {fps}")
-    if isinstance(weights, TakeRows):
-        if head_rotation is not None or times is not None:
-            raise ValueError("times and head rotations of a TakeRows are its own")
-        rows = weights
-        if rows.width != m or rows.frames == 0:
-            raise ValueError(f"weights must have shape (F, {m}) with F >= 1, got ({rows.frames}, {rows.width})")
-    else:
-        weights = np.asarray(weights, dtype=np.float64)
-        if weights.ndim != 2 or weights.shape[1] != m or len(weights) == 0:
-            raise ValueError(f"weights must have shape (F, {m}) with F >= 1, got {weights.shape}")
-        f = len(weights)
-        times = np.arange(f) / fps if times is None else np.asarray(times, dtype=np.float64)
-        if times.shape != (f,) or not np.isfinite(times).all() or (f > 1 and not (np.diff(times) > 0).all()):
-            raise ValueError(f"times must be {f} finite, increasing seconds, got shape {times.shape}")
-        if head_rotation is not None:
-            head_rotation = np.asarray(head_rotation, dtype=np.float64)
-            if head_rotation.shape != (f, 3, 3):
-                raise ValueError(f"head_rotation must have shape ({f}, 3, 3), got {head_rotation.shape}")
-        rows = TakeRows.from_arrays(weights, times, rotation=head_rotation)
+    rows = as_take(weights, m, fps, times=times, head_rotation=head_rotation)
     if m == 0:
         raise ValueError("the character has no key-models to animate")
     f = rows.frames

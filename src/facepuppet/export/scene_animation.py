@@ -37,7 +37,7 @@ import numpy as np
 
 from facepuppet._util.atomic import atomic_path
 from facepuppet.export.gltf_animation import rotation_quaternions
-from facepuppet.export.take import TakeRows
+from facepuppet.export.take import TakeRows, as_take
 from facepuppet.io.glb import BufferParts, write_glb_stream, write_gltf_stream
 from facepuppet.io.gltf import quaternion_matrix
 from facepuppet.io.keymodels import keymodel_binds, morph_names
@@ -83,30 +83,7 @@ def write_scene_animation(path: str | os.PathLike, source: bytes, names: Sequenc
         The animation's name.
     """
     names = list(names)
-    if isinstance(weights, TakeRows):
-        if head_rotation is not None or times is not None:
-            raise ValueError("times and head rotations of a TakeRows are its own")
-        rows = weights
-        if rows.width != len(names) or rows.frames == 0:
-            raise ValueError(f"weights must have shape (F, {len(names)}) with F >= 1, got "
-                             f"({rows.frames}, {rows.width})")
-    else:
-        weights = np.asarray(weights, dtype=np.float64)
-        if weights.ndim != 2 or weights.shape[1] != len(names) or len(weights) == 0:
-            raise ValueError(f"weights must have shape (F, {len(names)}) with F >= 1, got {weights.shape}")
-        rows = None
-    if not (np.isfinite(fps) and fps > 0):
-        raise ValueError(f"fps must be a positive number, got {fps}")
-    if rows is None:
-        f = len(weights)
-        times = np.arange(f) / fps if times is None else np.asarray(times, dtype=np.float64)
-        if times.shape != (f,) or not np.isfinite(times).all() or (f > 1 and not (np.diff(times) > 0).all()):
-            raise ValueError(f"times must be {f} finite, increasing seconds, got shape {times.shape}")
-        if head_rotation is not None:
-            head_rotation = np.asarray(head_rotation, dtype=np.float64)
-            if head_rotation.shape != (f, 3, 3):
-                raise ValueError(f"head_rotation must have shape ({f}, 3, 3), got {head_rotation.shape}")
-        rows = TakeRows.from_arrays(weights, times, rotation=head_rotation)
+    rows = as_take(weights, len(names), fps, times=times, head_rotation=head_rotation)
     f = rows.frames
     scene = scene_from_glb(source, "character scene")
     doc, parts = copy.deepcopy(scene.doc), BufferParts(scene.blob)

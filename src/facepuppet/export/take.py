@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["TakeChunk", "TakeRows", "CHUNK_ROWS"]
+__all__ = ["TakeChunk", "TakeRows", "CHUNK_ROWS", "as_take"]
 
 #: Frames per chunk when the rows are read (about 0.2 MB of float64 for 25 weights a frame).
 CHUNK_ROWS = 1024
@@ -100,3 +100,33 @@ class TakeRows:
             if len(t):
                 last = t[-1]
             yield chunk
+
+
+def as_take(weights, width: int, fps: float, *, times=None, head_rotation=None) -> TakeRows:
+    """A writer's ``weights`` argument as :class:`TakeRows`, checked: a TakeRows of ``width`` columns and at
+    least one frame (its times and rotations are its own), or arrays — weights (F, ``width``), F >= 1, times
+    (F,) finite and increasing seconds (``f / fps`` if None), head_rotation (F, 3, 3) or None. ``fps`` must be
+    a positive number. ValueError names what is wrong."""
+    if isinstance(weights, TakeRows):
+        if head_rotation is not None or times is not None:
+            raise ValueError("times and head rotations of a TakeRows are its own")
+        if weights.width != width or weights.frames == 0:
+            raise ValueError(f"weights must have shape (F, {width}) with F >= 1, got "
+                             f"({weights.frames}, {weights.width})")
+    else:
+        weights = np.asarray(weights, dtype=np.float64)
+        if weights.ndim != 2 or weights.shape[1] != width or len(weights) == 0:
+            raise ValueError(f"weights must have shape (F, {width}) with F >= 1, got {weights.shape}")
+    if not (np.isfinite(fps) and fps > 0):
+        raise ValueError(f"fps must be a positive number, got {fps}")
+    if isinstance(weights, TakeRows):
+        return weights
+    f = len(weights)
+    times = np.arange(f) / fps if times is None else np.asarray(times, dtype=np.float64)
+    if times.shape != (f,) or not np.isfinite(times).all() or (f > 1 and not (np.diff(times) > 0).all()):
+        raise ValueError(f"times must be {f} finite, increasing seconds, got shape {times.shape}")
+    if head_rotation is not None:
+        head_rotation = np.asarray(head_rotation, dtype=np.float64)
+        if head_rotation.shape != (f, 3, 3):
+            raise ValueError(f"head_rotation must have shape ({f}, 3, 3), got {head_rotation.shape}")
+    return TakeRows.from_arrays(weights, times, rotation=head_rotation)
