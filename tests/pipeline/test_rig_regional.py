@@ -200,6 +200,8 @@ def test_rig_and_animate_regional_on_the_command_line(tmp_path, rng, capsys):
     assert main(["animate", str(tmp_path / "track.npz"), "--track", str(tmp_path / "track.npz"), "--rig",
                  str(tmp_path / "rig.npz"), "-o", str(tmp_path / "out.glb"), "--smoothing", "off",
                  "--no-head", "--gain", "brows=0.5"]) == 0
+    r, m = len(rig.region_names), len(KEYS)
+    assert f"{r * m} channels ({r} regions x {m} key-models)" in capsys.readouterr().out
     verts, glb_w, _ = glb_vertices(tmp_path / "out.glb")
     w = glb_w.reshape(-1, len(rig.region_names), len(KEYS))
     np.testing.assert_allclose(verts, formula(rig, w), atol=1e-5)

@@ -66,6 +66,11 @@ def run(args: argparse.Namespace) -> int:
     t = anim.timings
     busy = t.get("track", 0.0) + t.get("map", 0.0) + t.get("write", 0.0)
     wrote = ", ".join(x for x in (args.output, args.csv, args.preview) if x)
-    print(f"animate: {n} frames ({ok} with a face), {len(anim.names)} key-models; "
+    if anim.regions:
+        channels = (f"{len(anim.names)} channels ({len(anim.regions)} regions x "
+                    f"{len(anim.names) // len(anim.regions)} key-models)")
+    else:
+        channels = f"{len(anim.names)} key-models"
+    print(f"animate: {n} frames ({ok} with a face), {channels}; "
           f"{n / busy if busy > 0 else float('inf'):.0f} frames/s (track, map, write); wrote {wrote}")
     return 0

@@ -88,6 +88,8 @@ class Animation:
         Seconds spent per step (``track``, ``map``, ``write``: the outputs, ``all``).
     valid_frames : (F,) bool or None
         Frames whose features were mapped; the track's ``valid`` when None.
+    regions : tuple of R str
+        A regional rig's regions (``Rig.region_names``), empty for a global rig.
     """
 
     weights: np.ndarray
@@ -97,6 +99,7 @@ class Animation:
     track: Track | None
     timings: dict = field(default_factory=dict)
     valid_frames: np.ndarray | None = None
+    regions: tuple[str, ...] = ()
 
     @property
     def valid(self) -> np.ndarray:
@@ -337,13 +340,15 @@ class _Recorder:
             track = features_to_track(self.features, fps=fps, frame_size=frame_size, backend=backend or "",
                                       static_extras=static_extras)
         names = tuple(getattr(rig, "channel_names", rig.names))
+        regions = tuple(getattr(rig, "region_names", ()))
         m = len(names)
         if not self.keep_weights:
             return Animation(np.zeros((0, m)), np.zeros((0, m)), names, float(fps), track,
-                             valid_frames=np.frombuffer(bytes(self.valid), dtype=np.uint8).astype(bool))
+                             valid_frames=np.frombuffer(bytes(self.valid), dtype=np.uint8).astype(bool),
+                             regions=regions)
         raw = self._rows(self.raw, m)
         return Animation(self._rows(self.weights, m), raw, names, float(fps), track,
-                         valid_frames=np.isfinite(raw).all(axis=1))
+                         valid_frames=np.isfinite(raw).all(axis=1), regions=regions)
 
 
 def _point_names() -> tuple[str, ...]:
