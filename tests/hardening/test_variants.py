@@ -263,12 +263,13 @@ def test_track_with_impossible_values(capsys, world, tmp_path, member):
                 names=["t.npz"])
 
 
-def _skinned_variant(tmp_path, change):
+def _skinned_variant(tmp_path, change, *, whole=False):
+    """The skinned test character with ``change`` applied to its glTF nodes (or, ``whole``, its document)."""
     from facepuppet.io.scene import glb_bytes, parse_glb
     from scene_characters import skinned_character
 
     doc, blob = parse_glb(skinned_character(np.random.default_rng(1))["glb"])
-    change(doc["nodes"])
+    change(doc if whole else doc["nodes"])
     path = tmp_path / "c.glb"
     path.write_bytes(glb_bytes(doc, blob))
     return path
@@ -312,3 +313,42 @@ def test_missing_camera_is_one_line(world, tmp_path, command):
     assert r.returncode != 0
     assert_one_line(r.stderr.decode(), "camera:97")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("case", ["scale_huge", "scale_text", "translation_nan", "matrix_nan", "matrix_short",
+                                  "joint_out_of_range", "joint_negative", "skeleton_out_of_range"])
+def test_character_node_transform_or_skin_that_is_impossible(capsys, world, tmp_path, case):
+    """A node scaled by 1e300 or a skin naming a node that does not exist must be refused, naming the file."""
+    def change(doc):
+        nodes, skin = doc["nodes"], doc["skins"][0]
+        if case == "scale_huge":
+            nodes[3]["scale"] = [1e300, 1e300, 1e300]
+        elif case == "scale_text":
+            nodes[3]["scale"] = ["1", 1, 1]
+        elif case == "translation_nan":
+            nodes[3]["translation"] = [float("nan"), 0.0, 0.0]
+        elif case == "matrix_nan":
+            nodes[3]["matrix"] = [float("nan")] * 16
+        elif case == "matrix_short":
+            nodes[3]["matrix"] = [1.0] * 9
+        elif case == "joint_out_of_range":
+            skin["joints"][0] = 999
+        elif case == "joint_negative":
+            skin["joints"][0] = -1
+        else:
+            skin["skeleton"] = 999
+
+    path = _skinned_variant(tmp_path, change, whole=True)
+    run_refused(capsys, _rig_args(world, path, tmp_path / "r.npz"), world, folders=[tmp_path], names=["c.glb"])
+
+
+def test_character_node_scaled_to_zero_is_accepted(capsys, world, tmp_path):
+    """A joint scaled to zero hides what it carries, a valid glTF animation trick: not refused."""
+    def change(nodes):
+        nodes[3]["scale"] = [0.0, 0.0, 0.0]
+
+    path = _skinned_variant(tmp_path, change)
+    from facepuppet.cli import main
+
+    assert main([str(a) for a in _rig_args(world, path, tmp_path / "r.npz")]) == 0
+    assert (tmp_path / "r.npz").is_file()

@@ -90,12 +90,39 @@ def _reason(e: Exception) -> str:
     return "nested too deeply" if isinstance(e, RecursionError) else str(e)
 
 
+#: A node's transform members and how many numbers each holds (glTF 2.0 node: TRS or a column-major matrix).
+_TRANSFORM_SIZES = {"translation": 3, "rotation": 4, "scale": 3, "matrix": 16}
+#: The largest float32 magnitude: viewers hold node transforms in float32, so a larger value is infinite there.
+_FLOAT32_MAX = 3.4028234663852886e38
+
+
 def _check_nodes(doc: dict, label: str) -> None:
     """FacepuppetError naming ``label`` unless the nodes form trees, as glTF requires: every child index names a
-    node, no node has two parents, no node is its own ancestor (walking such a graph would never end)."""
+    node, no node has two parents, no node is its own ancestor (walking such a graph would never end); every
+    node's transform is a list of finite numbers of its size that float32 can hold; every skin's joints and
+    skeleton name nodes."""
     nodes = doc.get("nodes") or []
     if not isinstance(nodes, list):
         raise FacepuppetError(f"{label}: glTF nodes is not a list")
+    for i, node in enumerate(nodes):
+        for key, size in _TRANSFORM_SIZES.items():
+            value = node.get(key) if isinstance(node, dict) else None
+            if value is None:
+                continue
+            if not (isinstance(value, list) and len(value) == size
+                    and all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                            and abs(v) <= _FLOAT32_MAX for v in value)):   # NaN fails the comparison
+                raise FacepuppetError(f"{label}: node {i}'s {key} is not {size} finite numbers within float32's "
+                                      f"range")
+    skins = doc.get("skins") or []
+    for k, skin in enumerate(skins if isinstance(skins, list) else [None]):
+        joints = skin.get("joints") if isinstance(skin, dict) else None
+        refs = list(joints) if isinstance(joints, list) else [None]
+        if isinstance(skin, dict) and "skeleton" in skin:
+            refs.append(skin["skeleton"])
+        for j in refs:
+            if not isinstance(j, int) or isinstance(j, bool) or not 0 <= j < len(nodes):
+                raise FacepuppetError(f"{label}: skin {k} names a joint {j!r} that is no node")
     parent: dict[int, int] = {}
     for i, node in enumerate(nodes):
         children = node.get("children") or [] if isinstance(node, dict) else None
