@@ -51,7 +51,9 @@ def test_realtime_pace_drops_what_a_slow_stream_cannot_take():
         time.sleep(3 / 200.0)                 # the stream takes three frame periods per frame
     assert got == sorted(got) and len(set(got)) == len(got)
     assert live.read == 40 and live.dropped == 40 - len(got)
-    assert 5 <= len(got) <= 25                # about a third reach the stream, the newest each time
+    # about a third reach the stream (how many depends on how late the two threads' sleeps run on a busy
+    # machine: each late sleep makes the stream take fewer), far fewer than all
+    assert 2 <= len(got) <= 30
     assert got[-1] >= 37                      # the last frame read is not lost behind older ones
 
 
