@@ -73,7 +73,8 @@ def _part(rng, v: int, m: int, centre) -> tuple[np.ndarray, np.ndarray, np.ndarr
     return base, deltas, faces
 
 
-def _mesh(b: Blob, base, deltas, faces, names, *, material: int, rng, skin_joints=None, defaults=None) -> int:
+def _mesh(b: Blob, base, deltas, faces, names, *, material: int, rng, skin_joints=None, defaults=None,
+          morph_normals: bool = False) -> int:
     n = rng.normal(size=base.shape)
     attributes = {"POSITION": b.accessor(base, min_max=True),
                   "NORMAL": b.accessor(_f32(n / np.linalg.norm(n, axis=1, keepdims=True))),
@@ -85,6 +86,9 @@ def _mesh(b: Blob, base, deltas, faces, names, *, material: int, rng, skin_joint
         attributes["WEIGHTS_0"] = b.accessor(w)
     prim = {"attributes": attributes, "indices": b.accessor(faces.reshape(-1), target=34963),
             "material": material, "targets": [{"POSITION": b.accessor(d, min_max=True)} for d in deltas]}
+    if morph_normals:
+        for target in prim["targets"]:
+            target["NORMAL"] = b.accessor(_f32(rng.normal(size=base.shape) * 0.05))
     mesh = {"name": None, "primitives": [prim], "extras": {"targetNames": list(names)}}
     if defaults is not None:
         mesh["weights"] = list(defaults)
@@ -92,8 +96,10 @@ def _mesh(b: Blob, base, deltas, faces, names, *, material: int, rng, skin_joint
     return len(b.doc["meshes"]) - 1
 
 
-def skinned_character(rng, *, head_joint_name: str = "mixamorig:Head", skinned: bool = True) -> dict:
-    """A GLB of a skinned head, teeth and eyes (sharing ``jawOpen`` / ``eyeBlinkLeft``), textured.
+def skinned_character(rng, *, head_joint_name: str = "mixamorig:Head", skinned: bool = True,
+                      morph_normals: bool = False) -> dict:
+    """A GLB of a skinned head, teeth and eyes (sharing ``jawOpen`` / ``eyeBlinkLeft``), textured; with
+    ``morph_normals`` the head's morph targets move its normals too.
 
     Returns a dict: ``glb`` (bytes), ``parts`` (name -> (base, deltas) in the mesh's own coordinates),
     ``head_joint`` (node index of the head joint).
@@ -115,7 +121,7 @@ def skinned_character(rng, *, head_joint_name: str = "mixamorig:Head", skinned: 
     joints = np.zeros((40, 4), np.uint8)
     joints[:, 0] = np.where(head[0][:, 1] > 1.7, 2, 1)
     m_head = _mesh(b, *head, HEAD_NAMES, material=0, rng=rng, skin_joints=joints if skinned else None,
-                   defaults=HEAD_DEFAULTS)
+                   defaults=HEAD_DEFAULTS, morph_normals=morph_normals)
     m_teeth = _mesh(b, *teeth, TEETH_NAMES, material=1, rng=rng)
     m_eyes = _mesh(b, *eyes, EYES_NAMES, material=1, rng=rng)
     for m, name in zip((m_head, m_teeth, m_eyes), ("head", "teeth", "eyes"), strict=True):

@@ -106,11 +106,24 @@ def test_regional_rig_keeps_the_papers_guarantees_through_its_file(tmp_path, rng
 
 
 def read_accessor(g, index):
+    """A float32 accessor's values (count, width), sparse ones included (zeros where they store nothing)."""
     acc = g.accessors[index]
-    view = g.bufferViews[acc.bufferView]
     width = {"SCALAR": 1, "VEC3": 3, "VEC4": 4}[acc.type]
-    start = (view.byteOffset or 0) + (acc.byteOffset or 0)
-    return np.frombuffer(g.binary_blob(), np.float32, acc.count * width, start).reshape(acc.count, width)
+
+    def view_at(view_index, offset, count, dtype, k):
+        view = g.bufferViews[view_index]
+        start = (view.byteOffset or 0) + (offset or 0)
+        return np.frombuffer(g.binary_blob(), dtype, count * k, start).reshape(count, k)
+
+    if acc.bufferView is None:
+        out = np.zeros((acc.count, width), np.float32)
+    else:
+        out = view_at(acc.bufferView, acc.byteOffset, acc.count, np.float32, width).copy()
+    if acc.sparse is not None:
+        sp = acc.sparse
+        rows = view_at(sp.indices.bufferView, sp.indices.byteOffset, sp.count, np.uint32, 1)[:, 0]
+        out[rows] = view_at(sp.values.bufferView, sp.values.byteOffset, sp.count, np.float32, width)
+    return out
 
 
 def glb_vertices(path):
@@ -202,8 +215,11 @@ def test_rig_and_animate_regional_on_the_command_line(tmp_path, rng, capsys):
                  "--no-head", "--gain", "brows=0.5"]) == 0
     r, m = len(rig.region_names), len(KEYS)
     assert f"{r * m} channels ({r} regions x {m} key-models)" in capsys.readouterr().out
-    verts, glb_w, _ = glb_vertices(tmp_path / "out.glb")
-    w = glb_w.reshape(-1, len(rig.region_names), len(KEYS))
+    # the character's own scene (a .glb): its M targets, driven to zero, then the R·M split ones
+    verts, glb_w, names = glb_vertices(tmp_path / "out.glb")
+    assert names == (*(k[0] for k in KEYS), *rig.channel_names)
+    np.testing.assert_allclose(glb_w[:, :m], 0.0)
+    w = glb_w[:, m:].reshape(-1, r, m)
     np.testing.assert_allclose(verts, formula(rig, w), atol=1e-5)
     assert main(["animate", str(tmp_path / "track.npz"), "--track", str(tmp_path / "track.npz"), "--rig",
                  str(tmp_path / "rig.npz"), "-o", str(tmp_path / "x.glb"), "--gain", "nose=2"]) != 0
@@ -245,3 +261,48 @@ def test_region_gain_shares_and_ambiguous_names():
     with pytest.raises(ValueError, match=r"--gain jaw=2: 'jaw' is both a key-model and a region"):
         key_gain(parse_gain(["jaw=2"]), names, regions, shares)
     np.testing.assert_allclose(key_gain(parse_gain(["3", "jawOpen=2"]), names, regions, shares), [2, 3, 3])
+
+
+def test_regional_rig_of_a_scene_character_keeps_the_scene(tmp_path, rng):
+    """A glTF character's own scene (skin, materials, other meshes) is kept with the split targets added; each
+    mesh plays the regional formula (read back: T_B + Σ w δ over the file's targets at the animated weights)."""
+    from facepuppet.io.gltf import read_gltf
+    from facepuppet.io.scene import parse_glb
+    from scene_characters import HEAD_DEFAULTS, skinned_character
+
+    made = skinned_character(rng)
+    (tmp_path / "c.glb").write_bytes(made["glb"])
+    character = read_gltf(tmp_path / "c.glb")
+    names = ("jawOpen", "eyeBlinkLeft", "mouthSmileLeft")
+    p = len(POINT_NAMES)
+    neutral = rng.normal(size=(p, 3))
+    examples = np.repeat(neutral[None], len(names), axis=0)
+    for i in range(len(names)):
+        own = np.arange(p) % len(names) == i
+        examples[i, own] += rng.normal(scale=0.5, size=(own.sum(), 3))
+    perf = Performer(neutral, examples, names, tuple(POINT_NAMES))
+    rig, _ = fit_rig(perf, character, method="regional")
+    assert rig.regional
+    save_rig(tmp_path / "rig.npz", rig)
+    rig = load_rig(tmp_path / "rig.npz")
+    track = make_track(frames(perf, rng))
+    anim = animate(None, rig, glb=tmp_path / "out.glb", track=track,
+                   config=AnimateConfig(smoothing=NO_SMOOTHING, head_rotation=False))
+    doc_in, _ = parse_glb(made["glb"])
+    doc_out, _ = parse_glb((tmp_path / "out.glb").read_bytes())
+    for key in ("nodes", "skins", "materials", "images"):
+        assert doc_out[key] == doc_in[key]
+    back = read_gltf(tmp_path / "out.glb")
+    assert set(rig.channel_names) <= set(back.names)
+    r, m = len(rig.region_names), len(names)
+    w = anim.weights.reshape(-1, r, m)
+    d = character.deltas[[character.names.index(n) for n in names]]
+    extra = HEAD_DEFAULTS[3] * character.deltas[character.names.index("extraShape")]
+    for f in (0, len(w) // 2, len(w) - 1):
+        weights = np.zeros(len(back.names))
+        weights[back.names.index("extraShape")] = HEAD_DEFAULTS[3]
+        for c, value in zip(rig.channel_names, anim.weights[f], strict=True):
+            weights[back.names.index(c)] = value
+        shown = back.neutral + np.tensordot(weights, back.deltas, axes=1)
+        expected = character.neutral + extra + np.einsum("kv,ki,ivc->vc", rig.mapper.region_masks, w[f], d)
+        np.testing.assert_allclose(shown, expected, atol=1e-5)

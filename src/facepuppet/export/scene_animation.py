@@ -56,7 +56,8 @@ HEAD_JOINT_NAMES = frozenset({"head", "jbipchead", "defhead", "ccbasehead", "bip
 def write_scene_animation(path: str | os.PathLike, source: bytes, names: Sequence[str],
                           weights: np.ndarray | TakeRows, fps: float, *, times: np.ndarray | None = None,
                           head_rotation: np.ndarray | None = None, pivot: np.ndarray | None = None,
-                          name: str = "performance") -> None:
+                          name: str = "performance", regions: tuple[Sequence[str], np.ndarray] | None = None,
+                          ) -> None:
     """Write the scene ``source`` with one animation of key-model weights (and head rotation), atomically.
 
     Parameters
@@ -81,15 +82,27 @@ def write_scene_animation(path: str | os.PathLike, source: bytes, names: Sequenc
         Where the head turns when there is no head joint (scene space); the origin if None.
     name : str
         The animation's name.
+    regions : (region names (R,), masks (R, V)), optional
+        A regional animation: the key-models ``names`` are split by region into new morph targets of the
+        scene's meshes (:mod:`facepuppet.export.scene_regional`; V the vertices the reader joins), and
+        ``weights`` has R·M columns, region-major (column k·M + i is w_ik).
     """
     names = list(names)
-    rows = as_take(weights, len(names), fps, times=times, head_rotation=head_rotation)
-    f = rows.frames
     scene = scene_from_glb(source, "character scene")
     doc, parts = copy.deepcopy(scene.doc), BufferParts(scene.blob)
+    binds = keymodel_binds(doc)
+    if regions is not None:
+        from facepuppet.export.scene_regional import add_regional_targets
+
+        unknown = [n for n in names if n not in binds]
+        if unknown:
+            raise ValueError(f"key-models not in the character's scene: {', '.join(unknown)}")
+        binds = add_regional_targets(doc, parts, scene.glb(), names, *regions)
+        names = list(binds)
+    rows = as_take(weights, len(names), fps, times=times, head_rotation=head_rotation)
+    f = rows.frames
     add = _Appender(doc, parts)
 
-    binds = keymodel_binds(doc)
     unknown = [n for n in names if n not in binds]
     if unknown:
         raise ValueError(f"key-models not in the character's scene: {', '.join(unknown)}")

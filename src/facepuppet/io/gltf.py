@@ -28,7 +28,8 @@ from facepuppet.io.glb import ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, GltfBuilder, v
 from facepuppet.io.keymodels import keymodel_binds, morph_names
 from facepuppet.io.scene import load_scene
 
-__all__ = ["read_gltf", "write_glb", "add_character", "colored_glb", "quaternion_matrix"]
+__all__ = ["read_gltf", "write_glb", "add_character", "colored_glb", "quaternion_matrix", "morph_mesh_vertices",
+           "morph_target_arrays"]
 
 log = logging.getLogger(__name__)
 
@@ -57,16 +58,11 @@ def read_gltf(path: str | os.PathLike, *, mesh: str | int | None = None) -> Char
     Character
         Neutral (V, 3), targets (M, V, 3) as absolute positions in scene space, names, faces (T, 3) or None.
     """
-    import pygltflib
-
     path = Path(path)
     if not path.is_file():
         raise FacepuppetError(f"{path}: no such file")
     scene = load_scene(path)  # one embedded buffer, compression decoded (io/scene.py)
-    try:
-        gltf = pygltflib.GLTF2.load_from_bytes(scene.glb())
-    except Exception as e:  # pygltflib raises a mix of json, struct and key errors
-        raise FacepuppetError(f"{path}: cannot read glTF ({type(e).__name__}: {e})") from e
+    gltf = _parsed(scene.glb(), str(path))
     if gltf is None:
         raise FacepuppetError(f"{path}: not a glTF or GLB file")
     reader = _Reader(gltf, path)
@@ -92,6 +88,75 @@ def read_gltf(path: str | os.PathLike, *, mesh: str | int | None = None) -> Char
         raise FacepuppetError(f"{path}: damaged glTF ({type(e).__name__}: {e}; an index points at nothing "
                               f"or a required field is missing)") from e
     return dataclasses.replace(character, source=scene.glb())
+
+
+def _parsed(source: bytes, label: str):
+    import pygltflib
+
+    try:
+        gltf = pygltflib.GLTF2.load_from_bytes(source)
+    except Exception as e:  # pygltflib raises a mix of json, struct and key errors
+        raise FacepuppetError(f"{label}: cannot read glTF ({type(e).__name__}: {e})") from e
+    return gltf
+
+
+def morph_mesh_vertices(source: bytes, label: str = "character scene") -> list[tuple[int, tuple[int, ...]]]:
+    """Where :func:`read_gltf` (every mesh, the default) takes a character's vertices from.
+
+    Parameters
+    ----------
+    source : bytes
+        The scene as one self-contained GLB (:attr:`Character.source`).
+    label : str
+        Names the scene in errors.
+
+    Returns
+    -------
+    list of (mesh index, vertex counts of its primitives)
+        One entry per node showing a mesh with morph targets, in the reader's order (the scene's nodes depth
+        first): the character's vertices are these primitives' vertices one after another. A mesh shown by
+        two nodes appears twice.
+    """
+    gltf = _parsed(source, label)
+    try:
+        out = []
+        for m, _ in _mesh_instances(gltf):
+            prims = gltf.meshes[m].primitives
+            if any(p.targets for p in prims):
+                out.append((m, tuple(int(gltf.accessors[p.attributes.POSITION].count) for p in prims)))
+    except (ValueError, IndexError, KeyError, TypeError, AttributeError) as e:
+        raise FacepuppetError(f"{label}: damaged glTF ({type(e).__name__}: {e})") from e
+    return out
+
+
+def morph_target_arrays(source: bytes, mesh: int, label: str = "character scene") -> list[dict[str, np.ndarray]]:
+    """The morph targets of mesh ``mesh``, decoded: for each primitive, attribute name -> (T, n, k) float64
+    deltas of its T targets on its n vertices, for every attribute any of its targets has (zeros in a target
+    that lacks it), in the mesh's own coordinates."""
+    gltf = _parsed(source, label)
+    reader = _Reader(gltf, Path(label))
+    out = []
+    try:
+        for prim in gltf.meshes[mesh].primitives:
+            n = int(gltf.accessors[prim.attributes.POSITION].count)
+            targets = [t if isinstance(t, dict) else vars(t) for t in (prim.targets or [])]
+            attrs = sorted({a for t in targets for a, v in t.items() if v is not None})
+            arrays = {}
+            for a in attrs:
+                decoded = [reader.accessor(t[a]) if t.get(a) is not None else None for t in targets]
+                k = next(d.shape[1] for d in decoded if d is not None)
+                stack = np.zeros((len(targets), n, k))
+                for j, d in enumerate(decoded):
+                    if d is not None:
+                        if d.shape != (n, k):
+                            raise FacepuppetError(f"{label}: mesh {mesh} morph target {j} {a} has shape "
+                                                  f"{d.shape}, the primitive ({n}, {k})")
+                        stack[j] = d
+                arrays[a] = stack
+            out.append(arrays)
+    except (IndexError, KeyError, TypeError, AttributeError) as e:
+        raise FacepuppetError(f"{label}: damaged glTF ({type(e).__name__}: {e})") from e
+    return out
 
 
 def _with_expressions(doc: dict, meshes: list[int], parts: list) -> list:

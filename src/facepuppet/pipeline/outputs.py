@@ -11,6 +11,7 @@ chunk by chunk (:class:`~facepuppet.export.take.TakeRows`): memory stays flat in
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import tempfile
 from collections.abc import Iterator
@@ -25,6 +26,8 @@ from facepuppet.pipeline.stream import StreamFrame
 
 if TYPE_CHECKING:
     from facepuppet.export.take import TakeRows
+
+log = logging.getLogger(__name__)
 
 __all__ = ["RowSpool", "GlbOutput", "CsvOutput", "PreviewOutput", "OUTPUT_SUFFIXES", "check_suffix"]
 
@@ -136,8 +139,10 @@ def _folder(path) -> Path:
 
 class GlbOutput:
     """The character with one animation of the stream's weights: its own scene whole when the rig keeps it
-    (``Character.source``), else the bare mesh with its key-models as morph targets; for a regional rig the bare
-    mesh with the paired key-models split by region (``Rig.split_character``, R·M morph targets).
+    (``Character.source``), else the bare mesh with its key-models as morph targets. For a regional rig the
+    paired key-models are split by region into R·M morph targets: added to the scene's meshes
+    (:mod:`facepuppet.export.scene_regional`), or on the bare mesh (``Rig.split_character``) when the rig has
+    no scene or its character is only part of one.
 
     Parameters
     ----------
@@ -169,18 +174,34 @@ class GlbOutput:
         if self._rows.spool.rows == 0:
             raise FacepuppetError(f"{self.path}: no frames to write")
         character = self.rig.character
-        if getattr(self.rig, "regional", False):  # the bare mesh, key-models split by region (R·M targets)
-            write_animated_glb(self._tmp, self.rig.split_character(), self._rows.take(self.head_rotation), self.fps)
-            return
-        if character.source is not None:  # the character's own scene, whole, with the animation added
+        regional = getattr(self.rig, "regional", False)
+        if character.source is not None and (not regional or _scene_holds(character)):
+            # the character's own scene, whole, with the animation added (a regional rig's split targets too)
             from facepuppet.export.scene_animation import write_scene_animation
 
             neutral = np.asarray(character.neutral)
             write_scene_animation(self._tmp, character.source, self.rig.names, self._rows.take(self.head_rotation),
-                                  self.fps, pivot=(neutral.min(axis=0) + neutral.max(axis=0)) / 2)
+                                  self.fps, pivot=(neutral.min(axis=0) + neutral.max(axis=0)) / 2,
+                                  regions=(self.rig.region_names, self.rig.mapper.region_masks) if regional
+                                  else None)
+            return
+        if regional:  # the bare mesh, key-models split by region (R·M targets)
+            write_animated_glb(self._tmp, self.rig.split_character(), self._rows.take(self.head_rotation), self.fps)
             return
         take = self._rows.take(self.head_rotation, self.rig.character_weights, len(character.names))
         write_animated_glb(self._tmp, character, take, self.fps)
+
+
+def _scene_holds(character) -> bool:
+    """True when the character's vertices are all those of its scene that the reader joins (not one mesh of
+    it, picked with ``--mesh``), so a regional rig's masks fit the scene."""
+    from facepuppet.export.scene_regional import scene_vertex_count
+
+    fits = scene_vertex_count(character.source) == len(character.neutral)
+    if not fits:
+        log.warning("the regional animation is written on the bare mesh: the rig's character is part of its "
+                    "scene (its region masks do not cover the scene's meshes)")
+    return fits
 
 
 class CsvOutput:

@@ -30,7 +30,8 @@ key-models named in ``names`` (:meth:`Rig.character_weights`) and the rest stay 
 
 A rig fitted with ``method="regional"`` (:attr:`Rig.regional`) maps a frame to weights w_ik per region k and
 key-model i; the animation carries them as R·M channels (:attr:`Rig.channel_names`, region-major), and its GLB
-is the bare mesh with the R·M morph targets M_k ⊙ (T_i − T_B) (:meth:`Rig.split_character`), which a player
+has the R·M morph targets M_k ⊙ (T_i − T_B), added to the character's own scene
+(:mod:`facepuppet.export.scene_regional`) or on the bare mesh (:meth:`Rig.split_character`), which a player
 blends into T = T_B + Σ_k Σ_i M_k ⊙ w_ik (T_i − T_B). The file is the same; the mapper's arrays hold the masks.
 """
 
