@@ -26,7 +26,7 @@ from facepuppet.capture.color.config import ColorTrackerConfig
 from facepuppet.capture.color.eye_anchors import eye_centres
 from facepuppet.capture.color.face import CROP_EXTENT, FEATURE_BOXES, FaceFrame, box_in_crop, similarity_of_pairs
 from facepuppet.capture.color.follow import Follower
-from facepuppet.capture.color.head_turn import apply_turn_model
+from facepuppet.capture.color.head_turn import apply_turn_model, turn_angles
 from facepuppet.capture.color.jobs import wait_pending
 from facepuppet.capture.color.lids import PATCH_SIZE, apply_lid_model
 from facepuppet.capture.color.likeness import FaceTemplate
@@ -420,7 +420,9 @@ class ColorTracker:
             pose = estimate_pose(uv, size, out_of_plane=False)
         self._follow.pose = pose if pose else None
         if pose and turn is not None:
-            pose = HeadPose(FRONTAL_ROTATION @ _turned(float(turn[0]), float(turn[1]), float(pose.angles()[2])),
+            # the model's turn and the share of the head's place that goes with it (:func:`.head_turn.turn_angles`)
+            yaw, pitch = turn_angles(turn, pose.translation)
+            pose = HeadPose(FRONTAL_ROTATION @ _turned(yaw, pitch, float(pose.angles()[2])),
                             pose.translation, pose.camera_matrix, pose.reprojection_error)
         if pose:
             points = points_in_head(curves, pose)
