@@ -53,7 +53,6 @@ RAY_SHARE = (0.5, 0.5)
 #: A profile's model of another kind (an older one, on RGB values) is not used.
 MODEL_KIND = 2
 
-_GREY = np.array([0.299, 0.587, 0.114], dtype=np.float32)
 
 
 def head_patch(crop: np.ndarray, S_px: np.ndarray, px: float, *, mirror: bool = False) -> np.ndarray:
@@ -83,18 +82,18 @@ def head_patch(crop: np.ndarray, S_px: np.ndarray, px: float, *, mirror: bool = 
                       [0.0, sy, (y0 - CROP_EXTENT[1]) * px + 0.5 * sy]])
         M = S_px[:, :2] @ P
         M[:, 2] += S_px[:, 2]
-        p = cv2.warpAffine(crop, M, size, flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
-                           borderMode=cv2.BORDER_REPLICATE)
-        g = p.astype(np.float32) @ _GREY
+        g = cv2.cvtColor(cv2.warpAffine(crop, M, size, flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+                                        borderMode=cv2.BORDER_REPLICATE), cv2.COLOR_RGB2GRAY)
         if mirror:      # the mirrored face's grey; its horizontal gradients come out with the opposite sign
             g = np.ascontiguousarray(g[:, ::-1])
-        gx = cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=3, borderType=cv2.BORDER_REPLICATE)
-        gy = cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=3, borderType=cv2.BORDER_REPLICATE)
-        scale = float(np.sqrt((gx * gx + gy * gy).mean())) + 1e-3
-        cells = np.stack([cv2.resize(gx, (cw, ch), interpolation=cv2.INTER_AREA),
-                          cv2.resize(gy, (cw, ch), interpolation=cv2.INTER_AREA)], axis=-1)
-        out.append((cells / scale).astype(np.float64).ravel())
-    return np.concatenate(out)
+        gx, gy = cv2.spatialGradient(g, ksize=3, borderType=cv2.BORDER_REPLICATE)     # Sobel, int16
+        gx, gy = gx.astype(np.float32), gy.astype(np.float32)
+        fx, fy = gx.ravel(), gy.ravel()
+        scale = float(np.sqrt((np.dot(fx, fx) + np.dot(fy, fy)) / len(fx))) + 1e-3
+        cells = np.stack([cv2.resize(gx, (cw, ch), interpolation=cv2.INTER_AREA),       # cell means
+                          cv2.resize(gy, (cw, ch), interpolation=cv2.INTER_AREA)], axis=-1).ravel()
+        out.append(cells / scale)
+    return np.concatenate(out).astype(np.float64)
 
 
 def training_pairs(crop: np.ndarray, S_px: np.ndarray, px: float, angles: np.ndarray,
