@@ -58,12 +58,12 @@ def test_training_pairs_mirror_the_yaw(rng):
 
 
 def test_turn_adds_the_share_of_the_place_of_the_head():
-    """A head whose origin projects to pixel uv has the direction of :func:`ray_angles` of uv; the turn of
-    :func:`turn_angles` is the model's plus that share."""
+    """A head whose origin (camera coordinates t) projects to pixel uv sits in the direction
+    (atan(t_x / t_z), atan(t_y / t_z)); the turn of :func:`turn_angles` is the model's plus that share."""
     K = default_camera((640, 480))
     t = np.array([6.0, -3.0, 60.0])
     uv = (K @ t)[:2] / t[2]
     ray = ray_angles(uv, K)
     np.testing.assert_allclose(ray, [np.arctan(0.1), np.arctan(-0.05)])
-    yaw, pitch = turn_angles(np.array([0.2, -0.1]), t)
+    yaw, pitch = turn_angles(np.array([0.2, -0.1]), uv, K)
     np.testing.assert_allclose([yaw, pitch], np.array([0.2, -0.1]) + np.asarray(RAY_SHARE) * ray)

@@ -172,10 +172,9 @@ def ray_angles(uv: np.ndarray, K: np.ndarray) -> np.ndarray:
     return np.array([np.arctan((uv[0] - K[0, 2]) / K[0, 0]), np.arctan((uv[1] - K[1, 2]) / K[1, 1])])
 
 
-def turn_angles(turn: np.ndarray, translation: np.ndarray) -> tuple[float, float]:
+def turn_angles(turn: np.ndarray, uv: np.ndarray, K: np.ndarray) -> tuple[float, float]:
     """The head's (yaw, pitch) radians (:meth:`~facepuppet.capture.pose.HeadPose.angles`): the model's ``turn``
-    (2,) plus :data:`RAY_SHARE` of the direction of the head's origin at ``translation`` (3,) cm, camera
-    coordinates (that of :func:`ray_angles` of its image)."""
-    t = np.asarray(translation, dtype=float)
-    return (float(turn[0]) + RAY_SHARE[0] * float(np.arctan2(t[0], t[2])),
-            float(turn[1]) + RAY_SHARE[1] * float(np.arctan2(t[1], t[2])))
+    (2,) plus :data:`RAY_SHARE` of :func:`ray_angles` of the inner eye corners' midpoint ``uv`` (2,) pixels
+    (the point the training takes the labels' share at) in the camera ``K`` (3, 3)."""
+    ray = ray_angles(uv, K)
+    return float(turn[0]) + RAY_SHARE[0] * float(ray[0]), float(turn[1]) + RAY_SHARE[1] * float(ray[1])

@@ -421,7 +421,8 @@ class ColorTracker:
         self._follow.pose = pose if pose else None
         if pose and turn is not None:
             # the model's turn and the share of the head's place that goes with it (:func:`.head_turn.turn_angles`)
-            yaw, pitch = turn_angles(turn, pose.translation)
+            inner = 0.5 * (curves[_IDX["eye_right_upper"], 0] + curves[_IDX["eye_left_upper"], 0])
+            yaw, pitch = turn_angles(turn, inner, pose.camera_matrix)
             pose = HeadPose(FRONTAL_ROTATION @ _turned(yaw, pitch, float(pose.angles()[2])),
                             pose.translation, pose.camera_matrix, pose.reprojection_error)
         if pose:
