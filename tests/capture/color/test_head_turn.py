@@ -67,3 +67,14 @@ def test_turn_adds_the_share_of_the_place_of_the_head():
     np.testing.assert_allclose(ray, [np.arctan(0.1), np.arctan(-0.05)])
     yaw, pitch = turn_angles(np.array([0.2, -0.1]), uv, K)
     np.testing.assert_allclose([yaw, pitch], np.array([0.2, -0.1]) + np.asarray(RAY_SHARE) * ray)
+
+
+def test_turn_rotation_gives_its_angles_back():
+    from facepuppet.capture.color.head_turn import turn_rotation
+    from facepuppet.capture.pose import FRONTAL_ROTATION, HeadPose
+
+    for angles in ([0.2, -0.1, 0.05], [-0.4, 0.3, -0.2]):
+        R = FRONTAL_ROTATION @ turn_rotation(*angles)
+        np.testing.assert_allclose(R @ R.T, np.eye(3), atol=1e-12)
+        got = HeadPose(R, np.array([0.0, 0.0, 60.0]), default_camera((640, 480))).angles()
+        np.testing.assert_allclose(got, angles, atol=1e-12)

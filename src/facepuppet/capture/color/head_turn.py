@@ -29,7 +29,7 @@ import numpy as np
 
 __all__ = ["PATCHES", "N_FEATURES", "JITTER", "READS", "RAY_SHARE", "MODEL_KIND",
            "head_patch", "training_pairs", "fit_turn_model", "apply_turn_model", "check_turn_model", "ray_angles",
-           "turn_angles"]
+           "turn_angles", "turn_rotation"]
 
 #: The patches read, each its extent in face units (x0, y0, x1, y1), its grid of cells (columns, rows) and the
 #: grey pixels sampled per cell along each axis before the gradients are taken and averaged over the cells:
@@ -178,3 +178,13 @@ def turn_angles(turn: np.ndarray, uv: np.ndarray, K: np.ndarray) -> tuple[float,
     (the point the training takes the labels' share at) in the camera ``K`` (3, 3)."""
     ray = ray_angles(uv, K)
     return float(turn[0]) + RAY_SHARE[0] * float(ray[0]), float(turn[1]) + RAY_SHARE[1] * float(ray[1])
+
+
+def turn_rotation(yaw: float, pitch: float, roll: float) -> np.ndarray:
+    """``Ry(yaw) @ Rx(pitch) @ Rz(roll)`` (3, 3), the convention of :meth:`~facepuppet.capture.pose.HeadPose.angles`
+    (the head's rotation is ``FRONTAL_ROTATION`` times it)."""
+    cy, sy, cp, sp, cr, sr = np.cos(yaw), np.sin(yaw), np.cos(pitch), np.sin(pitch), np.cos(roll), np.sin(roll)
+    Ry = np.array([[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]])
+    Rx = np.array([[1.0, 0.0, 0.0], [0.0, cp, -sp], [0.0, sp, cp]])
+    Rz = np.array([[cr, -sr, 0.0], [sr, cr, 0.0], [0.0, 0.0, 1.0]])
+    return Ry @ Rx @ Rz
