@@ -5,7 +5,9 @@ the reference). The colour tracker then tracks the clip twice: with the generic 
 trained on the first half of the clip (every third frame MediaPipe found a face in, at most 150, labelled by
 MediaPipe's curves and head rotations, as ``calibrate --train-profile`` does); the trained one is scored on
 the second half only (held out). Printed per angle: Pearson correlation and mean absolute error in degrees
-over the frames both backends tracked (a constant angle has no correlation: "-").
+over the frames both backends tracked (a constant angle has no correlation: "-"), and the spread of MediaPipe's
+angles over the held-out half (an angle whose spread is under ``TURNS`` degrees does not turn: its
+correlation is on noise).
 
     python benchmarks/eval_head_pose.py [--frames N] [--model face_landmarker.task] [CLIP ...]
 """
@@ -23,6 +25,9 @@ ASSETS = Path(os.environ.get("FACEPUPPET_ASSETS", ROOT.parent / "shared" / "asse
 CLIPS = ("performer_a.mp4", "performer_b_exaggerated.mp4", "performer_c.mp4")
 EVERY, MAX_LABELS = 3, 150          # labelled frames of the trained profile, as the CLI takes them
 ANGLES = ("yaw", "pitch", "roll")
+#: Spread (standard deviation, degrees) of MediaPipe's angle over the held-out half from which the head is
+#: taken to turn about that axis; a clip whose head turns less gives a correlation on noise.
+TURNS = 2.0
 
 
 def decode(path: Path, limit: int) -> tuple[list[np.ndarray], float]:
@@ -112,6 +117,10 @@ def main(argv: list[str] | None = None) -> int:
         t_valid, _, _, t_angles = track("color", {"profile": profile}, frames, fps)
         keep = mp_valid & t_valid & held
         print(row("trained, second half", scores(t_angles, mp_angles, keep), int(keep.sum())))
+        spread = np.degrees(mp_angles[mp_valid & held].std(axis=0))
+        turns = ", ".join(f"{a} {'turns' if s >= TURNS else 'still'}" for a, s in zip(ANGLES[:2], spread, strict=False))
+        print(f"  MediaPipe's spread over the second half: yaw {spread[0]:.1f}, pitch {spread[1]:.1f}, roll "
+              f"{spread[2]:.1f} deg ({turns}: the bars hold where the head turns)")
     return 0
 
 

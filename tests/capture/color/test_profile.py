@@ -220,12 +220,13 @@ def test_reestimated_weights_keep_features_separable_when_the_light_changes(labe
 
 
 def test_head_turn_model_round_trip_and_damage(tmp_path, rng):
-    from facepuppet.capture.color.head_turn import N_FEATURES, apply_turn_model, fit_turn_model
+    from facepuppet.capture.color.head_turn import MODEL_KIND, N_FEATURES, apply_turn_model, fit_turn_model
 
     x = rng.normal(size=(60, N_FEATURES))
     yaw_pitch = np.column_stack([0.01 * x[:, 0], 0.01 * x[:, -1]])
     head = fit_turn_model(x, yaw_pitch)
     assert head["coef"].shape == (2, N_FEATURES)
+    assert int(head["kind"]) == MODEL_KIND
     path = tmp_path / "p.npz"
     save_profile(path, Profile(head=head))
     got = load_profile(path)
@@ -236,10 +237,15 @@ def test_head_turn_model_round_trip_and_damage(tmp_path, rng):
     np.testing.assert_allclose(apply_turn_model(got.head, crop, S, 48.0), apply_turn_model(head, crop, S, 48.0))
     with np.load(path) as d:
         arrays = {k: d[k] for k in d.files}
-    arrays["head_coef"] = arrays["head_coef"][:, :10]
-    np.savez(tmp_path / "bad.npz", **arrays)
+    bad = dict(arrays, head_coef=arrays["head_coef"][:, :10])
+    np.savez(tmp_path / "bad.npz", **bad)
     with pytest.raises(FacepuppetError, match="head-turn model"):
         load_profile(tmp_path / "bad.npz")
+    # A profile of an older head-turn model (RGB patches, no kind) still loads, without that model.
+    old = {k: v for k, v in arrays.items() if k != "head_kind"}
+    old["head_coef"] = np.zeros((2, 1572))
+    np.savez(tmp_path / "old.npz", **old)
+    assert load_profile(tmp_path / "old.npz").head == {}
 
 
 def _known_set(rng, n=300):

@@ -9,6 +9,7 @@ MediaPipe. :func:`~facepuppet.capture.color.train.train_profile` learns a perfor
 
 from __future__ import annotations
 
+import logging
 import os
 from dataclasses import dataclass, field, replace
 
@@ -31,6 +32,8 @@ __all__ = [
     "save_profile",
     "load_profile",
 ]
+
+log = logging.getLogger(__name__)
 
 PROFILE_VERSION = 1
 
@@ -181,9 +184,13 @@ def _head(data: dict, path) -> dict:
     if not head:
         return {}
     try:
-        return check_turn_model(head, str(path))
+        model = check_turn_model(head, str(path))
     except ValueError as e:
         raise FacepuppetError(str(e)) from e
+    if not model:
+        log.warning("%s: the profile's head-turn model is of an older kind and is not used (the head's yaw and "
+                    "pitch stay at zero); train the profile again to read them", path)
+    return model
 
 
 #: The members of a profile file with a fixed shape (``name`` is a string; ``net_``, ``lids_``, ``shapes_``

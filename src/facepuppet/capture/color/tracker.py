@@ -26,7 +26,7 @@ from facepuppet.capture.color.config import ColorTrackerConfig
 from facepuppet.capture.color.eye_anchors import eye_centres
 from facepuppet.capture.color.face import CROP_EXTENT, FEATURE_BOXES, FaceFrame, box_in_crop, similarity_of_pairs
 from facepuppet.capture.color.follow import Follower
-from facepuppet.capture.color.head_turn import apply_turn_model
+from facepuppet.capture.color.head_turn import apply_turn_model, turn_angles, turn_rotation
 from facepuppet.capture.color.jobs import wait_pending
 from facepuppet.capture.color.lids import PATCH_SIZE, apply_lid_model
 from facepuppet.capture.color.likeness import FaceTemplate
@@ -420,7 +420,10 @@ class ColorTracker:
             pose = estimate_pose(uv, size, out_of_plane=False)
         self._follow.pose = pose if pose else None
         if pose and turn is not None:
-            pose = HeadPose(FRONTAL_ROTATION @ _turned(float(turn[0]), float(turn[1]), float(pose.angles()[2])),
+            # the model's turn and the share of the head's place that goes with it (:func:`.head_turn.turn_angles`)
+            inner = 0.5 * (curves[_IDX["eye_right_upper"], 0] + curves[_IDX["eye_left_upper"], 0])
+            yaw, pitch = turn_angles(turn, inner, pose.camera_matrix)
+            pose = HeadPose(FRONTAL_ROTATION @ turn_rotation(yaw, pitch, float(pose.angles()[2])),
                             pose.translation, pose.camera_matrix, pose.reprojection_error)
         if pose:
             points = points_in_head(curves, pose)
@@ -467,15 +470,6 @@ class ColorTracker:
         fol.unit_ref = best.frame.unit
         fol.score = None
         return best
-
-
-def _turned(yaw: float, pitch: float, roll: float) -> np.ndarray:
-    """``Ry(yaw) @ Rx(pitch) @ Rz(roll)`` (3, 3), the convention of :meth:`~facepuppet.capture.pose.HeadPose.angles`."""
-    cy, sy, cp, sp, cr, sr = np.cos(yaw), np.sin(yaw), np.cos(pitch), np.sin(pitch), np.cos(roll), np.sin(roll)
-    Ry = np.array([[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]])
-    Rx = np.array([[1.0, 0.0, 0.0], [0.0, cp, -sp], [0.0, sp, cp]])
-    Rz = np.array([[cr, -sr, 0.0], [sr, cr, 0.0], [0.0, 0.0, 1.0]])
-    return Ry @ Rx @ Rz
 
 
 def _layout_shift(layout: np.ndarray) -> dict[str, np.ndarray]:

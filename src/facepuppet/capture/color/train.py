@@ -294,16 +294,24 @@ def train_profile(frames, curves, *, base: Profile | None = None, name: str = "p
 
 
 def _label_turn(curves: np.ndarray, shape: tuple[int, ...], rotation: np.ndarray | None) -> np.ndarray | None:
-    """(yaw, pitch, roll) radians of a labelled frame: of ``rotation`` if given, else of the full pose solved
-    from the labelled curves' stable points with the generic face; None where there is none."""
+    """(yaw, pitch, roll) radians of a labelled frame (of ``rotation`` if given, else of the full pose solved
+    from the labelled curves' stable points with the generic face), the yaw and pitch less the share
+    :data:`~.head_turn.RAY_SHARE` of the direction of the inner eye corners' midpoint (:func:`~.head_turn.ray_angles`,
+    what the head-turn model reads); None where there is none."""
     from facepuppet.capture.pose import STABLE_FEATURES, HeadPose, camera_matrix, estimate_pose, pose_points_from_curves
 
     K = camera_matrix(float(shape[1]), float(shape[0]), None)
     if rotation is None:
         pose = estimate_pose(pose_points_from_curves(curves, STABLE_FEATURES), (shape[1], shape[0]))
-        return pose.angles() if pose else None
-    R = np.asarray(rotation, dtype=float)
-    return HeadPose(R, np.zeros(3), K).angles() if np.isfinite(R).all() else None
+        angles = pose.angles() if pose else None
+    else:
+        R = np.asarray(rotation, dtype=float)
+        angles = HeadPose(R, np.zeros(3), K).angles() if np.isfinite(R).all() else None
+    if angles is None:
+        return None
+    inner = 0.5 * (curves[_IDX["eye_right_upper"], 0] + curves[_IDX["eye_left_upper"], 0])
+    angles[:2] -= np.asarray(head_turn.RAY_SHARE) * head_turn.ray_angles(inner, K)
+    return angles
 
 
 #: Fewest training patches (jittered copies included) for a shape model: fewer labelled frames than this
