@@ -36,8 +36,9 @@ POLL_S = 0.1
 #: What to say when the Ray engine is asked for without Ray installed.
 RAY_MISSING = '--engine ray needs Ray: pip install "facepuppet[ray]"'
 
-#: ``ray.init`` options of the local runtime the batch starts when given no ``address``: no dashboard, Ray's
-#: own messages from warnings up (the workers' log lines still reach the driver's stderr).
+#: ``ray.init`` options of the local runtime the batch starts when given no ``address`` (``address="local"``: a
+#: new runtime, never a cluster that ``ray start`` left on this machine): no dashboard, Ray's own messages from
+#: warnings up (the workers' log lines still reach the driver's stderr).
 RAY_INIT = {"include_dashboard": False, "logging_level": logging.WARNING}
 
 
@@ -133,7 +134,7 @@ def run_ray(tasks: list[ClipTask], *, workers: int | None, address: str | None, 
         if address:
             ray.init(address=address, logging_level=RAY_INIT["logging_level"])
         else:
-            ray.init(num_cpus=max(1, int(workers or os.cpu_count() or 1)), **RAY_INIT)
+            ray.init(address="local", num_cpus=max(1, int(workers or os.cpu_count() or 1)), **RAY_INIT)
         started = True
     actors: list = []
     try:
