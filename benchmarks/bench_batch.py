@@ -31,8 +31,13 @@ CPU seconds). Bars: 2 workers >= 1.7x one worker (2-core machine); Ray's overhea
 time. Every batch's outputs are checked byte for byte against the single runs'. Last, the machine's own
 scaling: a CPU-bound loop in 2 processes at once against 1 (2 CPUs of a virtual machine may share one core).
 
+``--stages`` prints, before the runs, where one worker's CPU goes over the batch's clips: each stage's CPU seconds
+on the worker's own thread (``time.thread_time`` around decoding, tracking, its first frame per clip, mapping,
+the outputs), with 1 thread and with the thread pools of one worker alone, in a process of its own each, and the
+CPU of the whole process (its other threads: FFmpeg's decoder, OpenCV's pool).
+
 Run: ``python benchmarks/bench_batch.py [--copies 12] [--profile builtin|trained] [--assets PATH] [--no-ray]
-[--no-one-core] [--rig RIG.npz]``
+[--no-one-core] [--rig RIG.npz] [--stages]``
 """
 
 from __future__ import annotations
@@ -237,6 +242,97 @@ def frame_count(path: Path) -> int:
     return n
 
 
+def stages(threads: int, rig: str, clips: list[str]) -> None:
+    """One worker's clips in this process with ``threads`` threads in its pools; print each stage's CPU seconds
+    on this thread (the wrappers below time the library's public methods, they change nothing)."""
+    import collections
+
+    clock = time.thread_time
+    spent: dict[str, float] = collections.defaultdict(float)
+
+    def timed(name, f):
+        def wrapper(*a, **k):
+            t = clock()
+            try:
+                return f(*a, **k)
+            finally:
+                spent[name] += clock() - t
+        return wrapper
+
+    t0 = clock()
+    import cv2
+
+    import facepuppet.capture.color.tracker as color
+    import facepuppet.pipeline.outputs as outputs
+    import facepuppet.pipeline.rig as rigs
+    import facepuppet.pipeline.stream as stream
+    from facepuppet.batch.jobs import file_sha256
+    from facepuppet.batch.worker import ClipTask, run_clip, share_cores
+    from facepuppet.pipeline.animate import AnimateConfig
+
+    spent["imports"] = clock() - t0
+    share_cores(threads)
+    capture = cv2.VideoCapture
+
+    class Capture:                              # cv2.VideoCapture with its read timed
+        def __init__(self, *a):
+            self.cap = capture(*a)
+
+        def read(self):
+            t = clock()
+            try:
+                return self.cap.read()
+            finally:
+                spent["decode (VideoCapture.read)"] += clock() - t
+
+        def __getattr__(self, name):
+            return getattr(self.cap, name)
+
+    cv2.VideoCapture = Capture
+    track = color.ColorTracker.track
+    first = {"next": False}
+
+    def track_timed(self, rgb, ms):
+        t = clock()
+        try:
+            return track(self, rgb, ms)
+        finally:
+            dt = clock() - t
+            spent["track"] += dt
+            if first["next"]:
+                spent["  of which each clip's first frame"] += dt
+                first["next"] = False
+
+    color.ColorTracker.track = track_timed
+    stream.FrameMapper.step = timed("map, smooth, gain", stream.FrameMapper.step)
+    for cls, name in ((outputs.GlbOutput, "GLB"), (outputs.CsvOutput, "CSV")):
+        cls.write = timed(f"{name} per frame", cls.write)
+        cls.finish = timed(f"{name} at the end", cls.finish)
+    rigs.load_rig = timed("rig load", rigs.load_rig)
+    out = Path(tempfile.mkdtemp(prefix="bench-batch-stages-"))
+    sha, frames = file_sha256(rig), 0
+    c0, t0, w0 = time.process_time(), clock(), time.perf_counter()
+    for i, clip in enumerate(clips):
+        first["next"] = True
+        task = ClipTask(index=i, clip=clip, rig=rig, rig_sha256=sha, config=AnimateConfig(),
+                        outputs={"glb": str(out / f"{i}.glb"), "csv": str(out / f"{i}.csv")})
+        t = clock()
+        result = run_clip(task)
+        spent["clips, all stages"] += clock() - t
+        if i == 0:
+            spent["  of which the first clip"] = clock() - t
+        frames += result.frames
+    wall, main, cpu = time.perf_counter() - w0, clock() - t0, time.process_time() - c0
+    shutil.rmtree(out, ignore_errors=True)
+    print(f"\none worker's stages, {threads} thread(s) in its pools, {len(clips)} clips, {frames} frames: "
+          f"{wall:.1f} s, process {cpu:.1f} CPU s ({cpu / wall:.2f} cores), its own thread {main:.1f} CPU s, "
+          f"its other threads {cpu - main:.1f} CPU s (load {os.getloadavg()[0]:.2f})")
+    named = sum(v for k, v in spent.items() if not k.startswith(" ") and k not in ("imports", "clips, all stages"))
+    spent["the rest (frame loop, colour conversion, progress)"] = spent["clips, all stages"] - named
+    for name, v in spent.items():
+        print(f"  {name:<52}{v:>7.2f} CPU s{1000 * v / max(frames, 1):>8.2f} ms/frame")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--assets", default=os.environ.get("FACEPUPPET_ASSETS", ROOT.parent / "shared" / "assets"))
@@ -247,7 +343,12 @@ def main(argv=None) -> int:
                     help="the colour tracker's profile: built-in, or trained on the first clip (module notes)")
     ap.add_argument("--no-one-core", action="store_true", help="leave out the run of 1 worker pinned to 1 core")
     ap.add_argument("--rig", help="a rig made before (with the built-in profile) instead of making one")
+    ap.add_argument("--stages", action="store_true", help="first, where one worker's CPU goes (module notes)")
+    ap.add_argument("--stages-of", nargs="+", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    if args.stages_of:
+        stages(int(args.stages_of[0]), args.stages_of[1], args.stages_of[2:])
+        return 0
     assets = Path(args.assets)
     model = args.model or os.environ.get("FACEPUPPET_FACE_LANDMARKER") or str(assets / "models" /
                                                                                 "face_landmarker.task")
@@ -272,6 +373,10 @@ def main(argv=None) -> int:
     common = ["--rig", str(rig), *(["--profile", str(profile)] if profile else []), "--model", model,
               "--no-progress"]
 
+    if args.stages:
+        for threads in sorted({1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1}):
+            subprocess.run([sys.executable, __file__, "--stages-of", str(threads), str(rig), *map(str, clips)],
+                           env=ENV, check=True)
     single_dir = tmp / "single"
     single_dir.mkdir()
     load = {"sum of single animate runs": os.getloadavg()[0]}

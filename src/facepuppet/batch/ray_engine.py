@@ -101,18 +101,19 @@ class _CountQueue:
 
 
 def _resolve(ref):
-    import ray
-
+    """The object behind a Ray object reference; anything else as it is."""
+    try:
+        import ray
+    except ImportError:
+        return ref
     return ray.get(ref) if isinstance(ref, ray.ObjectRef) else ref
 
 
 def _slots(ray, workers: int | None, tasks: int) -> int:
-    """Actors to start: ``workers`` if given, else the cluster's CPUs over :data:`RAY_TASK_CPUS`; at most one
-    per clip."""
-    if workers is None:
-        cpus = float(ray.cluster_resources().get("CPU", RAY_TASK_CPUS))
-        workers = int(cpus // RAY_TASK_CPUS)
-    return max(1, min(int(workers), tasks))
+    """Actors to start: ``workers`` if given, at most the cluster's CPUs over :data:`RAY_TASK_CPUS` (an actor
+    that could not start would keep its clip waiting for ever), and at most one per clip."""
+    cpus = int(float(ray.cluster_resources().get("CPU", RAY_TASK_CPUS)) // RAY_TASK_CPUS)
+    return max(1, min(int(workers or cpus), cpus, tasks))
 
 
 def run_ray(tasks: list[ClipTask], *, workers: int | None, address: str | None, on_progress, on_result) -> None:
@@ -121,7 +122,8 @@ def run_ray(tasks: list[ClipTask], *, workers: int | None, address: str | None, 
     Uses the Ray runtime already started in this process if there is one; else connects to ``address`` (an
     existing cluster: ``auto``, ``HOST:PORT`` of its head, ``ray://HOST:10001``) or starts a local runtime of
     ``workers`` CPUs (:data:`RAY_INIT`), and shuts down what it started at the end. ``workers`` is the number of
-    actors (None: one per CPU of the cluster). Clips and outputs must be on paths every node sees.
+    actors (None, or more than the cluster has CPUs: one per CPU). Clips and outputs must be on paths every node
+    sees.
     """
     try:
         import ray
