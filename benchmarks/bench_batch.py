@@ -11,23 +11,33 @@ the face again on most frames of performer_c: a heavier and more threaded load t
 Timed in the same run, each as its own ``python -m facepuppet`` process (start-up included, as a user runs it):
 
 - the sum of single ``facepuppet animate`` runs, one per clip (the reference);
-- ``facepuppet batch --workers 1``, ``--workers 2`` (local engine) and ``--engine ray --workers 2`` (a local
-  Ray runtime started by the command);
+- ``facepuppet batch --workers 1``, ``--workers 2`` (local engine);
+- ``facepuppet batch --engine ray --workers 2`` with its own Ray runtime (started and stopped by the command:
+  the cold case, Ray's start-up and shutdown included);
+- ``facepuppet batch --engine ray --address 127.0.0.1:PORT`` on a Ray cluster of 2 CPUs started once before
+  (``ray start --head --block`` on loopback, stopped at the end): what a cluster's user pays per batch;
 - ``facepuppet batch --workers 1`` pinned to one core (Linux; its worker's thread pools then get one thread):
   the reference of the scaling over cores, since the unpinned single worker keeps more than one core busy while
   OpenCV's loops and FFmpeg's decoder run on their other threads.
 
 Printed: seconds, frames per second, the CPU seconds of the run's processes (user + system of every process the
-run waited for: the batch and its local workers; Ray's workers belong to its runtime and are not counted) and
+run waited for: the batch and its local workers; for Ray, of every process of the batch's session, its own Ray
+runtime included, and of the existing cluster's over the run, looked at 5 times a second) and
 the cores they kept busy on average (CPU / wall), the speed-up over ``--workers 1`` and over the single runs,
-Ray's overhead against the local engine with the same workers, 2 workers on 2 cores against 1 worker on 1 core,
+Ray's overhead against the local engine with the same workers (cold and on the existing cluster: the bar is
+the latter's, the per-batch cost of a cluster's user), 2 workers on 2 cores against 1 worker on 1 core,
 and the 1-minute load average as each run started (other work on the machine slows the wall times, hardly the
 CPU seconds). Bars: 2 workers >= 1.7x one worker (2-core machine); Ray's overhead <= 15 % of the local engine's
 time. Every batch's outputs are checked byte for byte against the single runs'. Last, the machine's own
 scaling: a CPU-bound loop in 2 processes at once against 1 (2 CPUs of a virtual machine may share one core).
 
+``--stages`` prints, before the runs, where one worker's CPU goes over the batch's clips: each stage's CPU seconds
+on the worker's own thread (``time.thread_time`` around decoding, tracking, its first frame per clip, mapping,
+the outputs), with 1 thread and with the thread pools of one worker alone, in a process of its own each, and the
+CPU of the whole process (its other threads: FFmpeg's decoder, OpenCV's pool).
+
 Run: ``python benchmarks/bench_batch.py [--copies 12] [--profile builtin|trained] [--assets PATH] [--no-ray]
-[--no-one-core]``
+[--no-one-core] [--rig RIG.npz] [--stages]``
 """
 
 from __future__ import annotations
@@ -37,15 +47,26 @@ import importlib.util
 import os
 import resource
 import shutil
+import signal
+import socket
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 CLIPS = ("performer_a", "performer_b_exaggerated", "performer_c")
 ONE_CORE = "batch --workers 1, pinned to 1 core"
+RAY_COLD = "Ray, own runtime (cold), 2 CPUs"
+RAY_CLUSTER = "Ray, existing cluster of 2 CPUs"
+
+#: Seconds to wait for the benchmark's Ray cluster to start, and to stop.
+CLUSTER_START_S, CLUSTER_STOP_S = 180, 60
+
+#: Seconds between two looks at the CPU of a Ray run's processes.
+SAMPLE_S = 0.2
 
 
 def make_rig(assets: Path, clip: Path, model: str, folder: Path, *, trained: bool) -> tuple[Path | None, Path]:
@@ -71,21 +92,124 @@ def make_rig(assets: Path, clip: Path, model: str, folder: Path, *, trained: boo
     return profile, folder / "rig.npz"
 
 
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class SessionCPU:
+    """CPU seconds (user + system) that the processes of the sessions ``sids`` spend while it runs, from Linux's
+    /proc, looked at every :data:`SAMPLE_S` seconds (a process is counted up to its last look: Ray's workers end
+    and are reaped by their own parents, so the CPU of waited-for children cannot count them)."""
+
+    def __init__(self, sids) -> None:
+        self.sids = set(sids)
+        self.first: dict[int, float] = {}
+        self.last: dict[int, float] = {}
+        self.done = threading.Event()
+        self.tick = os.sysconf("SC_CLK_TCK")
+        self.look()
+        self.first = dict(self.last)
+        self.thread = threading.Thread(target=self.loop, daemon=True)
+        self.thread.start()
+
+    def look(self) -> None:
+        for stat in Path("/proc").glob("[0-9]*/stat"):
+            try:
+                fields = stat.read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[3]) in self.sids:
+                self.last[int(stat.parent.name)] = (int(fields[11]) + int(fields[12])) / self.tick
+
+    def loop(self) -> None:
+        while not self.done.wait(SAMPLE_S):
+            self.look()
+
+    def stop(self) -> float:
+        self.done.set()
+        self.thread.join()
+        self.look()
+        return sum(v - self.first.get(p, 0.0) for p, v in self.last.items())
+
+
+class Cluster:
+    """A Ray cluster of ``cpus`` CPUs on loopback: ``ray start --head --block`` in a session of its own, so that
+    stopping it ends only its own processes (SIGTERM to the command, which stops what it started; SIGKILL to its
+    process group if it has not ended after CLUSTER_STOP_S)."""
+
+    def __init__(self, cpus: int, env: dict) -> None:
+        ray_cli = Path(sys.executable).with_name("ray")
+        self.port = free_port()
+        cmd = [str(ray_cli) if ray_cli.exists() else "ray", "start", "--head", "--block", "--num-cpus", str(cpus),
+               "--node-ip-address", "127.0.0.1", "--port", str(self.port), "--include-dashboard=false",
+               "--disable-usage-stats", "--dashboard-agent-listen-port", str(free_port())]
+        self.proc = subprocess.Popen(cmd, env={**env, "RAY_USAGE_STATS_ENABLED": "0"}, stdout=subprocess.PIPE,
+                                     stderr=subprocess.STDOUT, text=True, start_new_session=True)
+        started = threading.Event()
+        self.lines: list[str] = []
+
+        def read() -> None:
+            for line in self.proc.stdout:
+                self.lines.append(line)
+                if "Ray runtime started" in line:
+                    started.set()
+
+        threading.Thread(target=read, daemon=True).start()
+        if not started.wait(CLUSTER_START_S) or self.proc.poll() is not None:
+            self.stop()
+            raise SystemExit("ray start did not start a cluster:\n" + "".join(self.lines[-30:]))
+        self.address = f"127.0.0.1:{self.port}"
+        #: What a driver needs in its environment: Ray's token authentication, on by default for a cluster that
+        #: ``ray start`` made, with the token ``ray start`` saved where Ray looks for it.
+        self.client_env = {"RAY_AUTH_MODE": "token"}
+
+    def stop(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                self.proc.wait(CLUSTER_STOP_S)
+            except subprocess.TimeoutExpired:
+                pass
+        try:
+            os.killpg(self.proc.pid, signal.SIGKILL)    # whatever of its session lives on
+        except (ProcessLookupError, PermissionError):
+            pass
+        self.proc.wait()
+
+
 def children_cpu() -> float:
     """User + system CPU seconds of the processes this one has waited for, so far."""
     r = resource.getrusage(resource.RUSAGE_CHILDREN)
     return r.ru_utime + r.ru_stime
 
 
-def facepuppet(*args: str, cpus: set[int] | None = None) -> tuple[float, float]:
-    """Run ``python -m facepuppet ARGS`` (on the CPUs ``cpus`` only, if given); seconds of wall time and CPU
-    seconds of the processes it waited for. Exit codes other than 0 stop the benchmark."""
-    env = {**os.environ, "PYTHONPATH": str(ROOT / "src") + os.pathsep + os.environ.get("PYTHONPATH", "")}
+ENV = {**os.environ, "PYTHONPATH": str(ROOT / "src") + os.pathsep + os.environ.get("PYTHONPATH", "")}
+
+
+def facepuppet(*args: str, cpus: set[int] | None = None, cluster: Cluster | None = None,
+               ray: bool = False) -> tuple[float, float]:
+    """Run ``python -m facepuppet ARGS`` in a session of its own (on the CPUs ``cpus`` only, if given); seconds of
+    wall time and CPU seconds of the processes it waited for, or with ``ray`` of every process of its session (its
+    own Ray runtime) and of ``cluster``'s (:class:`SessionCPU`). Exit codes other than 0 stop the benchmark."""
+    env = ENV if cluster is None else {**ENV, **cluster.client_env}
     pin = None if cpus is None else (lambda: os.sched_setaffinity(0, cpus))
     c0, t0 = children_cpu(), time.perf_counter()
-    done = subprocess.run([sys.executable, "-m", "facepuppet", *args], env=env, capture_output=True, text=True,
-                          preexec_fn=pin)          # sets only the CPU affinity of the child
+    proc = subprocess.Popen([sys.executable, "-m", "facepuppet", *args], env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, preexec_fn=pin,  # sets only the child's CPU affinity
+                            start_new_session=True)
+    sampler = SessionCPU([proc.pid, *([cluster.proc.pid] if cluster else [])]) if ray else None
+    try:
+        _, stderr = proc.communicate()
+    except BaseException:
+        os.killpg(proc.pid, signal.SIGTERM)     # its own session: a stopped benchmark leaves no batch behind
+        proc.wait()
+        raise
     dt, cpu = time.perf_counter() - t0, children_cpu() - c0
+    if sampler is not None:
+        cpu = sampler.stop()
+    done = subprocess.CompletedProcess(proc.args, proc.returncode, "", stderr)
     if done.returncode != 0:
         raise SystemExit(f"facepuppet {' '.join(args)} failed ({done.returncode}):\n{done.stderr[-2000:]}")
     return dt, cpu
@@ -118,6 +242,97 @@ def frame_count(path: Path) -> int:
     return n
 
 
+def stages(threads: int, rig: str, clips: list[str]) -> None:
+    """One worker's clips in this process with ``threads`` threads in its pools; print each stage's CPU seconds
+    on this thread (the wrappers below time the library's public methods, they change nothing)."""
+    import collections
+
+    clock = time.thread_time
+    spent: dict[str, float] = collections.defaultdict(float)
+
+    def timed(name, f):
+        def wrapper(*a, **k):
+            t = clock()
+            try:
+                return f(*a, **k)
+            finally:
+                spent[name] += clock() - t
+        return wrapper
+
+    t0 = clock()
+    import cv2
+
+    import facepuppet.capture.color.tracker as color
+    import facepuppet.pipeline.outputs as outputs
+    import facepuppet.pipeline.rig as rigs
+    import facepuppet.pipeline.stream as stream
+    from facepuppet.batch.jobs import file_sha256
+    from facepuppet.batch.worker import ClipTask, run_clip, share_cores
+    from facepuppet.pipeline.animate import AnimateConfig
+
+    spent["imports"] = clock() - t0
+    share_cores(threads)
+    capture = cv2.VideoCapture
+
+    class Capture:                              # cv2.VideoCapture with its read timed
+        def __init__(self, *a):
+            self.cap = capture(*a)
+
+        def read(self):
+            t = clock()
+            try:
+                return self.cap.read()
+            finally:
+                spent["decode (VideoCapture.read)"] += clock() - t
+
+        def __getattr__(self, name):
+            return getattr(self.cap, name)
+
+    cv2.VideoCapture = Capture
+    track = color.ColorTracker.track
+    first = {"next": False}
+
+    def track_timed(self, rgb, ms):
+        t = clock()
+        try:
+            return track(self, rgb, ms)
+        finally:
+            dt = clock() - t
+            spent["track"] += dt
+            if first["next"]:
+                spent["  of which each clip's first frame"] += dt
+                first["next"] = False
+
+    color.ColorTracker.track = track_timed
+    stream.FrameMapper.step = timed("map, smooth, gain", stream.FrameMapper.step)
+    for cls, name in ((outputs.GlbOutput, "GLB"), (outputs.CsvOutput, "CSV")):
+        cls.write = timed(f"{name} per frame", cls.write)
+        cls.finish = timed(f"{name} at the end", cls.finish)
+    rigs.load_rig = timed("rig load", rigs.load_rig)
+    out = Path(tempfile.mkdtemp(prefix="bench-batch-stages-"))
+    sha, frames = file_sha256(rig), 0
+    c0, t0, w0 = time.process_time(), clock(), time.perf_counter()
+    for i, clip in enumerate(clips):
+        first["next"] = True
+        task = ClipTask(index=i, clip=clip, rig=rig, rig_sha256=sha, config=AnimateConfig(),
+                        outputs={"glb": str(out / f"{i}.glb"), "csv": str(out / f"{i}.csv")})
+        t = clock()
+        result = run_clip(task)
+        spent["clips, all stages"] += clock() - t
+        if i == 0:
+            spent["  of which the first clip"] = clock() - t
+        frames += result.frames
+    wall, main, cpu = time.perf_counter() - w0, clock() - t0, time.process_time() - c0
+    shutil.rmtree(out, ignore_errors=True)
+    print(f"\none worker's stages, {threads} thread(s) in its pools, {len(clips)} clips, {frames} frames: "
+          f"{wall:.1f} s, process {cpu:.1f} CPU s ({cpu / wall:.2f} cores), its own thread {main:.1f} CPU s, "
+          f"its other threads {cpu - main:.1f} CPU s (load {os.getloadavg()[0]:.2f})")
+    named = sum(v for k, v in spent.items() if not k.startswith(" ") and k not in ("imports", "clips, all stages"))
+    spent["the rest (frame loop, colour conversion, progress)"] = spent["clips, all stages"] - named
+    for name, v in spent.items():
+        print(f"  {name:<52}{v:>7.2f} CPU s{1000 * v / max(frames, 1):>8.2f} ms/frame")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--assets", default=os.environ.get("FACEPUPPET_ASSETS", ROOT.parent / "shared" / "assets"))
@@ -127,14 +342,23 @@ def main(argv=None) -> int:
     ap.add_argument("--profile", choices=("builtin", "trained"), default="builtin",
                     help="the colour tracker's profile: built-in, or trained on the first clip (module notes)")
     ap.add_argument("--no-one-core", action="store_true", help="leave out the run of 1 worker pinned to 1 core")
+    ap.add_argument("--rig", help="a rig made before (with the built-in profile) instead of making one")
+    ap.add_argument("--stages", action="store_true", help="first, where one worker's CPU goes (module notes)")
+    ap.add_argument("--stages-of", nargs="+", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    if args.stages_of:
+        stages(int(args.stages_of[0]), args.stages_of[1], args.stages_of[2:])
+        return 0
     assets = Path(args.assets)
     model = args.model or os.environ.get("FACEPUPPET_FACE_LANDMARKER") or str(assets / "models" /
                                                                                 "face_landmarker.task")
     tmp = Path(tempfile.mkdtemp(prefix="bench-batch-"))
     t0 = time.perf_counter()
-    profile, rig = make_rig(assets, assets / "video" / f"{CLIPS[0]}.mp4", model, tmp,
-                            trained=args.profile == "trained")
+    if args.rig:
+        profile, rig = None, Path(args.rig)
+    else:
+        profile, rig = make_rig(assets, assets / "video" / f"{CLIPS[0]}.mp4", model, tmp,
+                                trained=args.profile == "trained")
     print(f"setup (rig from {CLIPS[0]}, profile {args.profile}): {time.perf_counter() - t0:.0f} s")
 
     clips_dir = tmp / "clips"
@@ -149,6 +373,10 @@ def main(argv=None) -> int:
     common = ["--rig", str(rig), *(["--profile", str(profile)] if profile else []), "--model", model,
               "--no-progress"]
 
+    if args.stages:
+        for threads in sorted({1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1}):
+            subprocess.run([sys.executable, __file__, "--stages-of", str(threads), str(rig), *map(str, clips)],
+                           env=ENV, check=True)
     single_dir = tmp / "single"
     single_dir.mkdir()
     load = {"sum of single animate runs": os.getloadavg()[0]}
@@ -156,20 +384,38 @@ def main(argv=None) -> int:
                           "--csv", str(single_dir / f"{c.stem}.csv"), *common) for c in clips]
     t_single, cpu_single = sum(t for t, _ in singles), sum(c for _, c in singles)
     runs = [("batch --workers 1", ["--workers", "1"], None), ("batch --workers 2", ["--workers", "2"], None)]
-    if not args.no_ray and importlib.util.find_spec("ray") is not None:
-        runs.append(("batch --engine ray --workers 2", ["--engine", "ray", "--workers", "2"], None))
+    ray = not args.no_ray and importlib.util.find_spec("ray") is not None
+    if ray:
+        runs.append((RAY_COLD, ["--engine", "ray", "--workers", "2"], None))
+        runs.append((RAY_CLUSTER, ["--engine", "ray"], "cluster"))
     if not args.no_one_core and hasattr(os, "sched_setaffinity"):
         runs.append((ONE_CORE, ["--workers", "1"], {min(os.sched_getaffinity(0))}))
     times, cpus = {}, {}
-    for label, extra, pinned in runs:
-        out = tmp / label.replace(" ", "_").replace("-", "").replace(",", "")
-        load[label] = os.getloadavg()[0]
-        times[label], cpus[label] = facepuppet("batch", *map(str, clips), "-o", str(out), "--csv", *common, *extra,
-                                               cpus=pinned)
-        for c in clips:
-            for ext in ("glb", "csv"):
-                if (out / f"{c.stem}.{ext}").read_bytes() != (single_dir / f"{c.stem}.{ext}").read_bytes():
-                    raise SystemExit(f"{label}: {c.stem}.{ext} differs from animate's")
+    cluster = None
+    try:
+        for label, extra, where in runs:
+            if where == "cluster":
+                t0 = time.perf_counter()
+                cluster = Cluster(2, ENV)
+                print(f"Ray cluster at {cluster.address}: started in {time.perf_counter() - t0:.1f} s (not timed)")
+                time.sleep(2.0)             # its own start-up work done before the batch starts
+                extra = [*extra, "--address", cluster.address]
+            out = tmp / "".join(ch if ch.isalnum() else "_" for ch in label)
+            load[label] = os.getloadavg()[0]
+            times[label], cpus[label] = facepuppet("batch", *map(str, clips), "-o", str(out), "--csv", *common,
+                                                   *extra, cpus=where if isinstance(where, set) else None,
+                                                   cluster=cluster if where == "cluster" else None,
+                                                   ray="ray" in extra)
+            if where == "cluster":
+                cluster.stop()
+                cluster = None
+            for c in clips:
+                for ext in ("glb", "csv"):
+                    if (out / f"{c.stem}.{ext}").read_bytes() != (single_dir / f"{c.stem}.{ext}").read_bytes():
+                        raise SystemExit(f"{label}: {c.stem}.{ext} differs from animate's")
+    finally:
+        if cluster is not None:
+            cluster.stop()
 
     print(f"\n{args.copies} clips, {frames} frames (colour tracker, GLB + CSV); each line one process "
           f"(the single runs: one each)")
@@ -178,18 +424,21 @@ def main(argv=None) -> int:
     one = times["batch --workers 1"]
     rows = [("sum of single animate runs", t_single, cpu_single), *((k, times[k], cpus[k]) for k in times)]
     for label, dt, cpu in rows:
-        cpu_text = (f"{'n/a':>8}{'n/a':>14}{'n/a':>7}" if "ray" in label else
-                    f"{cpu:>8.1f}{1000 * cpu / frames:>14.1f}{cpu / dt:>7.2f}")
+        cpu_text = f"{cpu:>8.1f}{1000 * cpu / frames:>14.1f}{cpu / dt:>7.2f}"
         print(f"{label:<38}{dt:>9.1f}{frames / dt:>10.0f}{cpu_text}{one / dt:>12.2f}x{t_single / dt:>10.2f}x"
               f"{load[label]:>7.2f}")
-    print("CPU s: user + system of the run's processes (Ray's workers are its runtime's: n/a); cores: CPU s / "
-          "seconds; load: the 1-minute load average as the run started")
+    print("CPU s: user + system of the run's processes (Ray: every process of its own runtime, or of the existing "
+          f"cluster over the run, looked at every {SAMPLE_S} s); cores: CPU s / seconds; load: the 1-minute load "
+          "average as the run started")
     print("outputs of every batch: byte for byte those of the single animate runs")
     two = times["batch --workers 2"]
     print(f"bar: 2 workers >= 1.7x 1 worker: {one / two:.2f}x")
-    if "batch --engine ray --workers 2" in times:
-        ray = times["batch --engine ray --workers 2"]
-        print(f"bar: Ray's overhead <= 15 % of the local engine's time: {100 * (ray - two) / two:+.1f} %")
+    if RAY_CLUSTER in times:
+        print(f"bar: Ray's overhead <= 15 % of the local engine's time (2 workers), per batch on an existing "
+              f"cluster: {100 * (times[RAY_CLUSTER] - two) / two:+.1f} %")
+    if RAY_COLD in times:
+        print(f"     and with the batch's own Ray runtime (cold: Ray's start and shutdown included): "
+              f"{100 * (times[RAY_COLD] - two) / two:+.1f} %")
     if ONE_CORE in times:
         print(f"scaling: 2 workers on 2 cores vs 1 worker on 1 core: {times[ONE_CORE] / two:.2f}x; the unpinned "
               f"1 worker kept {cpus['batch --workers 1'] / one:.2f} cores busy (2 workers can be at most "

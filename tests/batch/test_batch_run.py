@@ -166,7 +166,7 @@ def ray_runtime():
     need(importlib.util.find_spec("ray") is not None, 'the ray extra is not installed (pip install "facepuppet[ray]")')
     import ray
 
-    ray.init(num_cpus=2, include_dashboard=False, logging_level="ERROR")
+    ray.init(address="local", num_cpus=2, include_dashboard=False, logging_level="ERROR")
     yield ray
     ray.shutdown()
 

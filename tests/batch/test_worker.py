@@ -129,3 +129,43 @@ def test_share_cores_sizes_opencvs_and_the_decoders_pools(monkeypatch):
         assert cv2.getNumThreads() == 3 and os.environ["OPENCV_FFMPEG_THREADS"] == "3"
     finally:
         cv2.setNumThreads(before)
+
+
+def test_a_ray_actors_clip_streams_its_frame_counts_then_animates_result(two_clips, tmp_path, monkeypatch):
+    """The Ray actor's method as plain Python (no Ray needed): frame counts adding up to the clip's frames, then
+    the result, with `animate`'s bytes; a clip that cannot be read gives a failed result, not an error."""
+    import cv2
+
+    from facepuppet.batch.ray_engine import ClipWorker
+    from facepuppet.pipeline.rig import load_rig
+
+    paths, rig, profile = two_clips
+    config = AnimateConfig(tracker=TrackerOptions(profile=str(profile), progress=False))
+    animate(paths[1], rig, glb=tmp_path / "ref.glb", config=config)
+    before = cv2.getNumThreads()
+    monkeypatch.setenv("OPENCV_FFMPEG_THREADS", os.environ.get("OPENCV_FFMPEG_THREADS", "1"))
+    try:
+        actor = ClipWorker(1)
+        task = ClipTask(index=7, clip=str(paths[1]), rig=str(tmp_path / "not-read.npz"), rig_sha256="shipped",
+                        outputs={"glb": str(tmp_path / "out.glb")}, config=config)
+        items = list(actor.run(task, [load_rig(rig)]))              # the rig as shipped, not from its path
+        bad = ClipTask(index=8, clip=str(tmp_path / "none.mp4"), rig=str(rig), rig_sha256="shipped",
+                       outputs={"glb": str(tmp_path / "none.glb")}, config=config)
+        failed = list(actor.run(bad, [None]))                         # the rig kept: not fetched again
+    finally:
+        cv2.setNumThreads(before)
+    *counts, result = items
+    assert all(isinstance(c, int) and c > 0 for c in counts) and sum(counts) == 40
+    assert result.ok and result.index == 7 and result.frames == 40, result.error
+    assert (tmp_path / "out.glb").read_bytes() == (tmp_path / "ref.glb").read_bytes()
+    assert len(failed) == 1 and not failed[0].ok and "none.mp4" in failed[0].error
+    assert not (tmp_path / "none.glb").exists()
+
+
+def test_clips_are_handed_out_longest_first():
+    from facepuppet.batch.run import longest_first
+
+    tasks = [ClipTask(index=i, clip=f"{i}.mp4", rig="r", rig_sha256="r", outputs={}, config=AnimateConfig())
+             for i in range(5)]
+    frames = {0: 354, 1: 1008, 2: 216, 3: 354, 4: 0}
+    assert [t.index for t in longest_first(tasks, frames)] == [1, 0, 3, 2, 4]        # ties in job order

@@ -24,7 +24,7 @@ from facepuppet.batch.worker import ClipResult, ClipTask
 from facepuppet.errors import FacepuppetError
 from facepuppet.pipeline.animate import AnimateConfig
 
-__all__ = ["BatchConfig", "BatchSummary", "run_batch", "REPORT_NAME"]
+__all__ = ["BatchConfig", "BatchSummary", "run_batch", "longest_first", "REPORT_NAME"]
 
 log = logging.getLogger(__name__)
 
@@ -45,7 +45,8 @@ class BatchConfig:
     engine : str
         ``"local"`` (worker processes here) or ``"ray"``.
     workers : int or None
-        Worker processes (local) or CPUs of the local Ray runtime; None: ``os.cpu_count()``.
+        Worker processes (local; None: ``os.cpu_count()``) or Ray actors (None: one per CPU of the cluster, or
+        ``os.cpu_count()`` CPUs of the local Ray runtime the batch starts).
     address : str or None
         Ray cluster to connect to (``ray`` engine); None starts a local one.
     progress : bool or None
@@ -88,6 +89,15 @@ def _frame_count(clip: str) -> int:
             return int(source.frame_count or 0)
     except Exception:           # noqa: BLE001 - an unreadable clip fails in its worker, with its message
         return 0
+
+
+def longest_first(tasks: list[ClipTask], frames: dict[int, int]) -> list[ClipTask]:
+    """The tasks by their clips' frame counts (``frames``: task index -> frames), longest first, ties in job order.
+
+    Workers take the next clip as they finish one, so the last clips handed out decide how long the others
+    wait at the end: with the short ones last, the workers finish close together.
+    """
+    return sorted(tasks, key=lambda t: -frames.get(t.index, 0))
 
 
 def run_batch(jobs: list[Job], outdir: str | os.PathLike, config: BatchConfig) -> BatchSummary:
@@ -183,7 +193,7 @@ def run_batch(jobs: list[Job], outdir: str | os.PathLike, config: BatchConfig) -
 
         runner = ENGINES[config.engine]
         with handle_signals():
-            runner(tasks, workers=config.workers or os.cpu_count() or 1, address=config.address,
+            runner(longest_first(tasks, expected), workers=config.workers, address=config.address,
                    on_progress=on_progress, on_result=on_result)
     done = finished()
     return BatchSummary(done, report, time.perf_counter() - t0, counts)

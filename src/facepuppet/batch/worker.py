@@ -91,13 +91,18 @@ class ClipResult:
     error: str = ""
 
 
-def cached_rig(path: str, sha256: str):
-    """The rig of ``path`` (content hash ``sha256``), loaded once per process."""
+def cached_rig(path: str, sha256: str, load=None):
+    """The rig of ``path`` (content hash ``sha256``), loaded once per process: by ``load()`` when given (the
+    Ray engine's fetch from the object store), else from the file."""
     rig = _RIGS.get(sha256)
     if rig is None:
-        from facepuppet.pipeline.rig import load_rig
+        if load is None:
+            from facepuppet.pipeline.rig import load_rig
 
-        rig = _RIGS[sha256] = load_rig(path)
+            rig = load_rig(path)
+        else:
+            rig = load()
+        rig = _RIGS[sha256] = rig
     return rig
 
 

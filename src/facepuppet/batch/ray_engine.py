@@ -1,0 +1,194 @@
+"""The Ray engine: a batch's clips on long-lived Ray actors, one per CPU slot, fed clips as they finish.
+
+Each actor (:class:`ClipWorker`) is one Ray worker process that lives for the whole batch, like a local worker:
+its imports, the colour tracker's compiled kernels, the tracker itself (reset before each clip) and each rig stay
+loaded across its clips. A rig goes once into the object store (``ray.put``); an actor fetches it the first time
+one of its clips needs it and keeps it (:func:`~facepuppet.batch.worker.cached_rig`).
+
+A clip is one call of the actor's generator method :meth:`ClipWorker.run`, a Ray streaming generator: it yields
+the frames done since its last yield (an ``int``, at most every :data:`~facepuppet.batch.worker.PROGRESS_EVERY_S`
+seconds) and last the clip's :class:`~facepuppet.batch.worker.ClipResult`. The driver waits on all running
+generators at once (``ray.wait``), so progress needs no actor of its own. When an actor's result comes in, the
+next clip (longest first, as the batch orders them) goes to that actor; an actor that died under a clip gives
+that clip a failed row and is replaced.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import queue as queue_module
+import threading
+
+from facepuppet.batch.worker import PROGRESS_EVERY_S, ClipResult, ClipTask, cached_rig, one_line, run_clip, share_cores
+from facepuppet.errors import FacepuppetError
+
+__all__ = ["run_ray", "ClipWorker", "RAY_MISSING", "RAY_TASK_CPUS", "RAY_INIT", "POLL_S"]
+
+log = logging.getLogger(__name__)
+
+#: CPUs a Ray actor of the batch reserves (its native thread pools get as many threads, :func:`share_cores`).
+RAY_TASK_CPUS = 1
+
+#: Seconds the driver waits on the running clips before looking again.
+POLL_S = 0.1
+
+#: What to say when the Ray engine is asked for without Ray installed.
+RAY_MISSING = '--engine ray needs Ray: pip install "facepuppet[ray]"'
+
+#: ``ray.init`` options of the local runtime the batch starts when given no ``address`` (``address="local"``: a
+#: new runtime, never a cluster that ``ray start`` left on this machine): no dashboard, Ray's own messages from
+#: warnings up (the workers' log lines still reach the driver's stderr).
+RAY_INIT = {"include_dashboard": False, "logging_level": logging.WARNING}
+
+
+class ClipWorker:
+    """What one Ray actor of a batch does (made remote by :func:`run_ray`; plain Python here).
+
+    Parameters
+    ----------
+    threads : int
+        Threads of its native pools (:func:`~facepuppet.batch.worker.share_cores`): its CPUs.
+    """
+
+    def __init__(self, threads: int = RAY_TASK_CPUS) -> None:
+        share_cores(threads)
+
+    def run(self, task: ClipTask, rig_box: list):
+        """Animate one clip: yield frame counts (``int``, frames since the last yield), then its ClipResult.
+
+        ``rig_box`` holds the rig's object reference (in a list, so that Ray hands it over unresolved and the
+        rig is fetched only by an actor that has not kept it yet), or the rig itself.
+        """
+        rig = cached_rig(task.rig, task.rig_sha256, load=lambda: _resolve(rig_box[0]))
+        counts: queue_module.SimpleQueue = queue_module.SimpleQueue()
+        done: list[ClipResult] = []
+        failure: list[BaseException] = []
+
+        def clip() -> None:
+            try:
+                done.append(run_clip(task, _CountQueue(counts), rig))
+            except BaseException as e:      # noqa: BLE001 - handed to the generator, which raises it
+                failure.append(e)
+
+        worker = threading.Thread(target=clip, name=f"facepuppet-clip-{task.index}", daemon=True)
+        worker.start()
+        while worker.is_alive():
+            try:
+                frames = counts.get(timeout=PROGRESS_EVERY_S)
+            except queue_module.Empty:
+                continue
+            yield frames
+        worker.join()
+        left = 0
+        while not counts.empty():
+            left += counts.get_nowait()
+        if left:
+            yield left
+        if failure:
+            raise failure[0]
+        yield done[0]
+
+
+class _CountQueue:
+    """The ``put`` that :func:`run_clip` sends progress through, keeping only the frame count."""
+
+    def __init__(self, counts: queue_module.SimpleQueue) -> None:
+        self.counts = counts
+
+    def put(self, item) -> None:
+        self.counts.put(int(item[1]))
+
+
+def _resolve(ref):
+    """The object behind a Ray object reference; anything else as it is."""
+    try:
+        import ray
+    except ImportError:
+        return ref
+    return ray.get(ref) if isinstance(ref, ray.ObjectRef) else ref
+
+
+def _slots(ray, workers: int | None, tasks: int) -> int:
+    """Actors to start: ``workers`` if given, at most the cluster's CPUs over :data:`RAY_TASK_CPUS` (an actor
+    that could not start would keep its clip waiting for ever), and at most one per clip."""
+    cpus = int(float(ray.cluster_resources().get("CPU", RAY_TASK_CPUS)) // RAY_TASK_CPUS)
+    return max(1, min(int(workers or cpus), cpus, tasks))
+
+
+def run_ray(tasks: list[ClipTask], *, workers: int | None, address: str | None, on_progress, on_result) -> None:
+    """Run the tasks on Ray actors (module notes), in the order given; each rig put once into the object store.
+
+    Uses the Ray runtime already started in this process if there is one; else connects to ``address`` (an
+    existing cluster: ``auto``, ``HOST:PORT`` of its head, ``ray://HOST:10001``) or starts a local runtime of
+    ``workers`` CPUs (:data:`RAY_INIT`), and shuts down what it started at the end. ``workers`` is the number of
+    actors (None, or more than the cluster has CPUs: one per CPU). Clips and outputs must be on paths every node
+    sees.
+    """
+    try:
+        import ray
+    except ImportError:
+        raise FacepuppetError(RAY_MISSING) from None
+    if not tasks:
+        return
+    started = False
+    if not ray.is_initialized():
+        if address:
+            ray.init(address=address, logging_level=RAY_INIT["logging_level"])
+        else:
+            ray.init(address="local", num_cpus=max(1, int(workers or os.cpu_count() or 1)), **RAY_INIT)
+        started = True
+    actors: list = []
+    try:
+        _drive(ray, tasks, _slots(ray, workers, len(tasks)), actors, on_progress, on_result)
+    finally:
+        for actor in actors:
+            try:
+                ray.kill(actor)
+            except Exception:                   # noqa: BLE001, S110 - already gone
+                pass
+        if started:
+            ray.shutdown()
+
+
+def _drive(ray, tasks, slots: int, actors: list, on_progress, on_result) -> None:
+    """Feed the tasks to ``slots`` actors (appended to ``actors``) and hand back their progress and results."""
+    remote = ray.remote(num_cpus=RAY_TASK_CPUS)(ClipWorker)
+    rigs: dict = {}
+    for t in tasks:
+        if t.rig_sha256 not in rigs:
+            rigs[t.rig_sha256] = ray.put(cached_rig(t.rig, t.rig_sha256))
+    todo = list(reversed(tasks))
+    running: dict = {}                          # generator -> (actor, task)
+
+    def give(actor) -> None:
+        if todo:
+            task = todo.pop()
+            running[actor.run.remote(task, [rigs[task.rig_sha256]])] = (actor, task)
+
+    for _ in range(slots):
+        actors.append(remote.remote(RAY_TASK_CPUS))
+        give(actors[-1])
+    while running:
+        ready, _ = ray.wait(list(running), num_returns=len(running), timeout=POLL_S)
+        for gen in ready:
+            actor, task = running[gen]
+            try:
+                item = ray.get(next(gen))
+            except StopIteration:
+                item = ClipResult(index=task.index, ok=False, error=f"{task.clip}: Ray actor gave no result")
+            except Exception as e:              # noqa: BLE001 - the actor died under this clip, or Ray failed it
+                item = ClipResult(index=task.index, ok=False, error=f"{task.clip}: Ray actor failed ({one_line(e)})")
+                actors.remove(actor)
+                try:
+                    ray.kill(actor)
+                except Exception:               # noqa: BLE001, S110 - already gone
+                    pass
+                actor = remote.remote(RAY_TASK_CPUS)
+                actors.append(actor)
+            if isinstance(item, ClipResult):
+                del running[gen]
+                on_result(item)
+                give(actor)
+            else:
+                on_progress(task.index, int(item))
