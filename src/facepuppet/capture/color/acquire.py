@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 
 from facepuppet.capture.color.config import ColorTrackerConfig
-from facepuppet.capture.color.detect import face_boxes, frames_of_boxes, inside_box
+from facepuppet.capture.color.detect import face_boxes, frames_of_boxes, inside_box, search_area
 from facepuppet.capture.color.eye_anchors import (
     calibrated_anchors,
     eye_centres,
@@ -28,6 +28,7 @@ from facepuppet.capture.color.eye_anchors import (
 )
 from facepuppet.capture.color.face import (
     FaceFrame,
+    SkinModel,
     find_face,
     light_balance,
     same_frame,
@@ -154,31 +155,58 @@ class Acquirer:
         """The measurement of the candidate frame that looks most like a face, or None.
 
         ``last``: the frame the face was followed in until now, if it was just lost (a candidate too, in the
-        light it was followed in).
+        light it was followed in). Then the search runs near it first (:func:`~.detect.search_area`: the skin
+        regions and the cascade's windows there), and over the whole frame only if no face is found near it.
         """
+        cfg = self.tracker.config
+        last_light = self.place.light
+        best = None
+        if last is not None:
+            best = self._search(rgb, last, last_light, search_area(last, rgb.shape))
+            if best is None or best.score < cfg.acquire.min_score:
+                best = None
+                self.place.light = last_light
+        if best is None:
+            best = self._search(rgb, last, last_light, None)
+        if best is None or best.score < cfg.acquire.min_score:
+            best = self._landmark_acquire(rgb)
+        if best is None:
+            return None
+        if not self.place.calibrated:
+            self.place.calibrated = True
+            placed = self._calibrate_anchors(rgb, best.frame)
+            if placed is not None:
+                best = self._settle(rgb, placed) or best
+        return best
+
+    def _search(self, rgb: np.ndarray, last: FaceFrame | None, last_light: np.ndarray | None,
+                roi: tuple[int, int, int, int] | None) -> Measurement | None:
+        """The best candidate of the whole frame or of its part ``roi`` (x0, y0, x1, y1), the light it is seen
+        in left in the placement; or None."""
         place, cfg = self.place, self.tracker.config
         cost = cfg.acquire.resize_cost
-        last_light = place.light
         # Skin regions of the frame as filmed and of the frame with its light's colour and level evened out
-        # (a warm, cool or dim light moves skin out of the skin model, or other things into it). The light of
+        # (a warm, cool or dim light moves skin out of the skin model, or other things into it), by the profile's
+        # skin model and by the generic one (the profile's is one performer's skin in one light). The light of
         # the hypothesis that looks most like a face is kept: the crops are evened out the same way until the
         # face is lost.
         best, light, seen = None, None, []
-        # Windows with a face's pattern of dark features: candidates of their own, and the support a candidate
-        # needs in a scene the skin model cannot tell from skin.
-        # Only where the skin model finds some skin region (skin-coloured scenes included): without any, the
-        # landmark backend places the face as before.
-        skin = self.tracker.profile.skin
+        skins = [self.tracker.profile.skin]
+        skins += [SkinModel()] if skins[0] != SkinModel() else []
         hypotheses = []
         for M in (None, light_balance(rgb)):
-            frame = find_face(rgb if M is None else cv2.transform(rgb, M), skin)
-            if frame is not None:
-                hypotheses.append((M, frame))
-        # (A landmark model given explicitly places faces the skin model misses; the cascade serves the tracker
-        # standing alone.)
+            shown = rgb if M is None else cv2.transform(rgb, M)
+            for skin in skins:
+                frame = find_face(shown, skin, roi=roi)
+                if frame is not None:
+                    hypotheses.append((M, frame))
+        # Windows with a face's pattern of dark features: candidates of their own, and the support a candidate
+        # needs in a scene the skin model cannot tell from skin. Only where a skin model finds some skin region
+        # (skin-coloured scenes included): without any, the landmark backend places the face; and not when a
+        # landmark model is given explicitly (it places the faces the skin model misses).
         use = cfg.acquire.cascade and hypotheses and cfg.landmarks.model is None
-        boxes = face_boxes(rgb) if use else np.zeros((0, 4))
-        boxes = np.array([b for b in boxes if _skin_share(rgb, b, skin) >= WINDOW_SKIN]).reshape(-1, 4)
+        boxes = face_boxes(rgb, roi) if use else np.zeros((0, 4))
+        boxes = np.array([b for b in boxes if max(_skin_share(rgb, b, k) for k in skins) >= WINDOW_SKIN]).reshape(-1, 4)
         hypotheses += [(None, f) for f in frames_of_boxes(boxes)]
         if last is not None:
             hypotheses.insert(0, (last_light, last))
@@ -197,15 +225,6 @@ class Acquirer:
                 best, light = got, M
         place.light = (light if light is None or best is None
                        else fit_light(rgb, best.frame, light, cfg.measure.px, self.tracker.crop_size))
-        if best is None or best.score < cfg.acquire.min_score:
-            best = self._landmark_acquire(rgb)
-        if best is None:
-            return None
-        if not place.calibrated:
-            place.calibrated = True
-            placed = self._calibrate_anchors(rgb, best.frame)
-            if placed is not None:
-                best = self._settle(rgb, placed) or best
         return best
 
     def refine(self, rgb: np.ndarray, candidates: list[FaceFrame],

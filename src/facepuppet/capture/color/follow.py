@@ -43,6 +43,9 @@ class Follower:
         self.ref: np.ndarray | None = None
         #: Crop matrix (2, 3) where the alignment last put the face.
         self.followed: np.ndarray | None = None
+        #: The last alignment's correlation of the aligned crop with the reference (ECC's criterion, in [-1, 1]),
+        #: or None when it failed.
+        self.correlation: float | None = None
 
     def reset(self) -> None:
         """Forget the reference (the face is being acquired afresh)."""
@@ -68,12 +71,14 @@ class Follower:
         f = self.config.scale
         guess = then_affine(cv2.invertAffineTransform(self.followed), A)
         guess[:, 2] *= f
+        self.correlation = None
         try:
-            _, warp = cv2.findTransformECC(self.ref, self.grey(rgb, A), guess.astype(np.float32),
+            cc, warp = cv2.findTransformECC(self.ref, self.grey(rgb, A), guess.astype(np.float32),
                                            cv2.MOTION_AFFINE, (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS,
                                                                self.config.iterations, ECC_EPS), None, ECC_BLUR)
         except cv2.error:
             return None
+        self.correlation = float(cc)
         W = warp.astype(float)
         W[:, 2] /= f
         G = then_affine(W, cv2.invertAffineTransform(A))      # crop pixels -> image pixels, where the face is now

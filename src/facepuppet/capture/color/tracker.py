@@ -24,7 +24,14 @@ import numpy as np
 from facepuppet.capture.color.acquire import NO_CORRECTION, Acquirer
 from facepuppet.capture.color.config import ColorTrackerConfig
 from facepuppet.capture.color.eye_anchors import eye_centres
-from facepuppet.capture.color.face import CROP_EXTENT, FEATURE_BOXES, FaceFrame, box_in_crop, similarity_of_pairs
+from facepuppet.capture.color.face import (
+    CROP_EXTENT,
+    FEATURE_BOXES,
+    FaceFrame,
+    SkinModel,
+    box_in_crop,
+    similarity_of_pairs,
+)
 from facepuppet.capture.color.follow import Follower
 from facepuppet.capture.color.head_turn import apply_turn_model
 from facepuppet.capture.color.jobs import wait_pending
@@ -91,10 +98,12 @@ class _Following:
     """The face being followed from frame to frame."""
 
     frame: FaceFrame | None = None          # the face frame of the last frame (None: lost)
-    dropped: FaceFrame | None = None        # the frame the likeness check just dropped
     misses: int = 0                         # frames in a row without the eyes
     correction: np.ndarray | None = None    # the eyes' smoothed correction (a, b, tx, ty), crop pixels
     unit_ref: float = 1.0                   # slow reference of the face's size, image pixels
+    skin: bool = True                       # whether the last measured crop's cheeks looked like skin
+    skin_found: bool = True                 # whether they did where the face was found
+    dropped: FaceFrame | None = None        # the frame the likeness check just dropped
     score: float | None = None              # smoothed likeness of the followed crop
     tracked: int = 0                        # frames tracked
     pose: object = None                     # the last head pose (the next solve starts there)
@@ -152,6 +161,8 @@ class ColorTracker:
         self._cheek_boxes = self._box_table[[_CHEEK_L, _CHEEK_R]]
         self._eye_boxes = self._box_table[[_EYE_L, _EYE_R]]
         self._skin_table = profile.skin.table()
+        generic_skin = SkinModel()
+        self._generic_skin = None if profile.skin == generic_skin else generic_skin.table()
         self._eye_window = (int(round(config.measure.eye_window[0] * px)),
                             int(round(config.measure.eye_window[1] * px)))
         self._layout_px = (np.asarray(profile.layout) - CROP_EXTENT[:2]) * px
@@ -229,17 +240,14 @@ class ColorTracker:
         result = None
         if fol.frame is not None:
             result = self.measure(rgb, fol.frame, follow=True, gain=cfg.frame_gain)
-            if result is not None:
-                fol.misses = 0 if result.eyes_found else fol.misses + 1
-                if fol.misses > cfg.max_misses or result.score < cfg.min_score:
-                    result = None
-                elif not (UNIT_JUMP[0] < result.frame.unit / fol.unit_ref < UNIT_JUMP[1]):
-                    result = None                   # the frame shrank or grew far too fast: start afresh
-                else:
-                    fol.unit_ref += UNIT_GAIN * (result.frame.unit - fol.unit_ref)
+            fol.misses = 0 if result.eyes_found else fol.misses + 1
+            if not self._still_the_face(result):
+                result = None
+            else:
+                fol.unit_ref += UNIT_GAIN * (result.frame.unit - fol.unit_ref)
         if result is None:
-            # The frame the face was followed in until now (or until the likeness check dropped it) is a
-            # candidate too: after a blink or a turn the face is usually still there.
+            # The frame the face was followed in until now is a candidate too, and the search starts near it:
+            # after a blink, a turn or a hand passing the face is usually still there.
             result = self._acquire(rgb, last=fol.frame or fol.dropped)
         fol.dropped = None
         if result is None:
@@ -313,7 +321,8 @@ class ColorTracker:
         Returns
         -------
         Measurement or None
-            None when the crop shows no face (no skin on the cheeks and little likeness to a face).
+            None when, not following, the crop shows no face (no skin on the cheeks and little likeness to a face);
+            when following, never None (the tracker weighs the evidence, :meth:`_still_the_face`).
         """
         px = self.config.measure.px
         place = self._place
@@ -326,7 +335,7 @@ class ColorTracker:
         crop = cv2.warpAffine(rgb, A, self._size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         if place.light is not None:
             crop = cv2.transform(crop, place.light)
-        skin = self._skin_ok(crop)
+        skin = self._follow.skin = self._skin_ok(crop)
         C = self.intensity(crop)
         eyes = self.eye_centres(C)
         # The eyes' correction of the followed frame (a similarity in crop pixels, as a, b, tx, ty), smoothed
@@ -347,9 +356,10 @@ class ColorTracker:
         place.shift = S_px[:, 2] + (S_px[:, :2] - _EYE2) @ place.anchor_mid
         self._last_measured = (C, S_px)
         boxes = self._boxes_now()
-        # How much the crop looks like a face: needed to pick among candidates and when the skin is not seen.
-        score = self._template.score(C, S_px) if (not follow or not skin) else 1.0
-        if not skin and score < self.config.acquire.min_skinless_score and not place.skinless_ok:
+        # How much the crop looks like a face: needed to pick among candidates (a followed face is judged by
+        # its match with its own reference crop instead).
+        score = 1.0 if follow else self._template.score(C, S_px)
+        if not follow and not skin and score < self.config.acquire.min_skinless_score and not place.skinless_ok:
             return None
         curves = None
         if outline:
@@ -429,9 +439,26 @@ class ColorTracker:
         return FrameFeatures(True, curves, np.full((3, 3), nan), np.full(3, nan), np.full((len(POINT_NAMES), 3), nan))
 
     def _skin_ok(self, crop: np.ndarray) -> bool:
-        """Whether the cheeks of the crop look like skin (the profile's skin model, over :data:`SKIN_CHEEKS` of
-        the pixels)."""
-        return skin_fraction(crop, self._cheek_boxes, self._skin_table) > SKIN_CHEEKS
+        """Whether the cheeks of the crop look like skin (over :data:`SKIN_CHEEKS` of the pixels) to the profile's
+        skin model or the generic one (a profile's model is one performer's skin in one light)."""
+        if skin_fraction(crop, self._cheek_boxes, self._skin_table) > SKIN_CHEEKS:
+            return True
+        generic = self._generic_skin
+        return generic is not None and skin_fraction(crop, self._cheek_boxes, generic) > SKIN_CHEEKS
+
+    def _still_the_face(self, result: Measurement) -> bool:
+        """Whether the evidence of the face itself says the followed face is still there: the crop's alignment on
+        the reference crop of the acquisition succeeded and matches it (:attr:`~.follow.Follower.correlation`;
+        closer where the cheeks no longer look like skin), the eyes were found within the last
+        ``max_misses`` frames, and the face's size kept near its slow reference."""
+        fol, cfg = self._follow, self.config.follow
+        cc = self._follower.correlation
+        if cc is None or cc < (cfg.min_correlation if fol.skin or not fol.skin_found else cfg.skinless_correlation):
+            log.debug("face lost: its crop no longer matches the reference (correlation %s)", cc)
+            return False
+        if fol.misses > cfg.max_misses:
+            return False
+        return UNIT_JUMP[0] < result.frame.unit / fol.unit_ref < UNIT_JUMP[1]
 
     def _boxes_now(self) -> np.ndarray:
         """The feature rectangles (len(BOX_NAMES), 4) of this frame: moved with the layout's eyes (translation
@@ -465,6 +492,7 @@ class ColorTracker:
             return None
         self._follower.start(rgb, best.frame)
         fol.unit_ref = best.frame.unit
+        fol.skin_found = self._skin_ok(best.seen[0])
         fol.score = None
         return best
 
