@@ -30,6 +30,7 @@ from facepuppet.capture.color.face import (
     FaceFrame,
     SkinModel,
     box_in_crop,
+    same_frame,
     similarity_of_pairs,
 )
 from facepuppet.capture.color.follow import Follower
@@ -71,6 +72,8 @@ SKIN_CHEEKS = 0.3                  # fraction              of the cheeks' pixels
 SCALE_STEP = (0.8, 1.25)           # ratio                 size change one frame's alignment or eye search may make
 UNIT_JUMP = (0.65, 1.5)            # ratio                 size change from the slow reference that loses the face
 UNIT_GAIN = 0.05                   # per frame             gain of the slow reference size
+LOST_MEMORY = 30                   # frames                a lost face's last frame is searched near this long
+OWN_LIKENESS = 0.6                 # fraction              of the face's best likeness the followed crop keeps
 
 _SHIFTED = np.array([not n.startswith("cheek") for n in BOX_NAMES])     # rectangles that follow the eyes
 _MOUTH_BOX = BOX_NAMES.index("mouth")
@@ -103,8 +106,11 @@ class _Following:
     unit_ref: float = 1.0                   # slow reference of the face's size, image pixels
     skin: bool = True                       # whether the last measured crop's cheeks looked like skin
     skin_found: bool = True                 # whether they did where the face was found
-    dropped: FaceFrame | None = None        # the frame the likeness check just dropped
+    dropped: FaceFrame | None = None        # the frame the face was last followed in, while it is lost
+    lost_for: int = 0                       # frames since the face was lost
     score: float | None = None              # smoothed likeness of the followed crop
+    score_ref: float | None = None          # the face's own likeness: the best smoothed one of this face
+    found_again: bool = False               # the face was found again after a loss and not checked since
     tracked: int = 0                        # frames tracked
     pose: object = None                     # the last head pose (the next solve starts there)
     turn_ms: int | None = None              # time of the last head-turn reading
@@ -248,11 +254,18 @@ class ColorTracker:
         if result is None:
             # The frame the face was followed in until now is a candidate too, and the search starts near it:
             # after a blink, a turn or a hand passing the face is usually still there.
+            # The frame the face was followed in until now (or, for a while after it was lost, last followed in)
+            # is a candidate too: after a blink, a turn or a hand passing, the face is usually still there.
             result = self._acquire(rgb, last=fol.frame or fol.dropped)
-        fol.dropped = None
         if result is None:
+            if fol.frame is not None:
+                fol.dropped, fol.lost_for = fol.frame, 0
+            fol.lost_for += 1
+            if fol.lost_for > LOST_MEMORY:
+                fol.dropped = fol.score_ref = None
             fol.frame = self.seen = None
             return FrameFeatures.lost(len(CURVE_NAMES), len(POINT_NAMES))
+        fol.dropped = None
         curves, fol.frame, fol.correction, self.seen = result.curves, result.frame, result.correction, result.seen
         fol.tracked += 1
         if fol.tracked % cfg.check_every == 0:
@@ -469,12 +482,21 @@ class ColorTracker:
     def _check_score(self) -> None:
         """Now and then, how much the followed crop still looks like a face (smoothed); drop the frame if not.
 
-        Scored on the crop just measured, with the layout placed where the eyes put it.
+        Scored on the crop just measured, with the layout placed where the eyes put it. The bar is the least
+        likeness; at the first check after the face was found again, :data:`OWN_LIKENESS` of the best this face
+        has shown if higher (a face found again while a hand still covered part of it may sit off the face, and
+        looks less like it than the face did; another performer's face may look little like the profile's
+        layout all along, and expressions move the likeness of any face).
         """
         fol = self._follow
         score = self._template.score(*self._last_measured)
         fol.score = score if fol.score is None else 0.5 * (fol.score + score)
-        if fol.score < self.config.follow.min_followed_score:
+        bar = self.config.follow.min_followed_score
+        if fol.found_again and fol.score_ref is not None:
+            bar = max(bar, OWN_LIKENESS * fol.score_ref)
+        fol.found_again = False
+        fol.score_ref = fol.score if fol.score_ref is None else max(fol.score_ref, fol.score)
+        if fol.score < bar:
             log.debug("face lost: the followed crop no longer looks like a face (score %.2f)", fol.score)
             fol.frame, fol.dropped = None, fol.frame
 
@@ -490,6 +512,9 @@ class ColorTracker:
         best = self._acquirer.find(rgb, last)
         if best is None:
             return None
+        fol.found_again = last is not None
+        if last is not None and fol.score_ref is not None and same_frame(best.frame, last):
+            fol.score_ref = min(fol.score_ref, best.score)      # found where it was: that is how it looks now
         self._follower.start(rgb, best.frame)
         fol.unit_ref = best.frame.unit
         fol.skin_found = self._skin_ok(best.seen[0])
