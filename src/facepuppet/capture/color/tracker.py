@@ -33,7 +33,7 @@ from facepuppet.capture.color.face import (
     same_frame,
     similarity_of_pairs,
 )
-from facepuppet.capture.color.follow import Follower
+from facepuppet.capture.color.follow import LOST_MEMORY, Follower, FollowState
 from facepuppet.capture.color.head_turn import apply_turn_model
 from facepuppet.capture.color.jobs import wait_pending
 from facepuppet.capture.color.lids import PATCH_SIZE, apply_lid_model
@@ -70,10 +70,6 @@ SNAKE_MARGIN = 8                   # crop pixels           around the mouth rect
 SNAKE_BLUR = 5                     # crop pixels           blur of the snakes' fields (:func:`.snakes.snake_fields`)
 SKIN_CHEEKS = 0.3                  # fraction              of the cheeks' pixels that must look like skin
 SCALE_STEP = (0.8, 1.25)           # ratio                 size change one frame's alignment or eye search may make
-UNIT_JUMP = (0.65, 1.5)            # ratio                 size change from the slow reference that loses the face
-UNIT_GAIN = 0.05                   # per frame             gain of the slow reference size
-LOST_MEMORY = 30                   # frames                a lost face's last frame is searched near this long
-OWN_LIKENESS = 0.6                 # fraction              of the face's best likeness the followed crop keeps
 
 _SHIFTED = np.array([not n.startswith("cheek") for n in BOX_NAMES])     # rectangles that follow the eyes
 _MOUTH_BOX = BOX_NAMES.index("mouth")
@@ -94,26 +90,6 @@ _SNAKE_CURVES = (("lip_upper_outer", UPPER),
 _SNAKE_IDX = np.array([_IDX[n] for n, _ in _SNAKE_CURVES], dtype=np.int64)
 _SNAKE_SIDE = np.array([s for _, s in _SNAKE_CURVES])
 _SNAKE_FIXED = np.ones(len(_SNAKE_CURVES), bool)
-
-
-@dataclass
-class _Following:
-    """The face being followed from frame to frame."""
-
-    frame: FaceFrame | None = None          # the face frame of the last frame (None: lost)
-    misses: int = 0                         # frames in a row without the eyes
-    correction: np.ndarray | None = None    # the eyes' smoothed correction (a, b, tx, ty), crop pixels
-    unit_ref: float = 1.0                   # slow reference of the face's size, image pixels
-    skin: bool = True                       # whether the last measured crop's cheeks looked like skin
-    skin_found: bool = True                 # whether they did where the face was found
-    dropped: FaceFrame | None = None        # the frame the face was last followed in, while it is lost
-    lost_for: int = 0                       # frames since the face was lost
-    score: float | None = None              # smoothed likeness of the followed crop
-    score_ref: float | None = None          # the face's own likeness: the best smoothed one of this face
-    found_again: bool = False               # the face was found again after a loss and not checked since
-    tracked: int = 0                        # frames tracked
-    pose: object = None                     # the last head pose (the next solve starts there)
-    turn_ms: int | None = None              # time of the last head-turn reading
 
 
 @dataclass
@@ -175,7 +151,7 @@ class ColorTracker:
         anchors_px = np.asarray((np.asarray(profile.anchors) - CROP_EXTENT[:2]) * px, dtype=float)
         self._place = Placement(anchors_px, anchors_px[:2].mean(axis=0),
                                 calibrated=config.landmarks.anchor_calibration <= 0)
-        self._follow = _Following()
+        self._follow = FollowState()
         self._follower = Follower(self._size, px, config.follow)
         #: (face crop, its crop matrix, the layout placed on it) of the last frame whose curves were measured:
         #: where the profile's shape models learn (:func:`~facepuppet.capture.color.train.train_profile`).
@@ -247,10 +223,8 @@ class ColorTracker:
         if fol.frame is not None:
             result = self.measure(rgb, fol.frame, follow=True, gain=cfg.frame_gain)
             fol.misses = 0 if result.eyes_found else fol.misses + 1
-            if not self._still_the_face(result):
+            if not fol.still_the_face(result.frame, self._follower.correlation, cfg):
                 result = None
-            else:
-                fol.unit_ref += UNIT_GAIN * (result.frame.unit - fol.unit_ref)
         if result is None:
             # The frame the face was followed in until now is a candidate too, and the search starts near it:
             # after a blink, a turn or a hand passing the face is usually still there.
@@ -269,7 +243,8 @@ class ColorTracker:
         curves, fol.frame, fol.correction, self.seen = result.curves, result.frame, result.correction, result.seen
         fol.tracked += 1
         if fol.tracked % cfg.check_every == 0:
-            self._check_score()
+            if not fol.still_like_a_face(self._template.score(*self._last_measured), cfg):
+                fol.frame, fol.dropped = None, fol.frame
         curves = self._smoother(curves, result.frame, timestamp_ms)
         return self._features(curves, (w, h), self._turn(timestamp_ms))
 
@@ -335,7 +310,7 @@ class ColorTracker:
         -------
         Measurement or None
             None when, not following, the crop shows no face (no skin on the cheeks and little likeness to a face);
-            when following, never None (the tracker weighs the evidence, :meth:`_still_the_face`).
+            when following, never None (the tracker weighs the evidence, :meth:`~.follow.FollowState.still_the_face`).
         """
         px = self.config.measure.px
         place = self._place
@@ -459,46 +434,11 @@ class ColorTracker:
         generic = self._generic_skin
         return generic is not None and skin_fraction(crop, self._cheek_boxes, generic) > SKIN_CHEEKS
 
-    def _still_the_face(self, result: Measurement) -> bool:
-        """Whether the evidence of the face itself says the followed face is still there: the crop's alignment on
-        the reference crop of the acquisition succeeded and matches it (:attr:`~.follow.Follower.correlation`;
-        closer where the cheeks no longer look like skin), the eyes were found within the last
-        ``max_misses`` frames, and the face's size kept near its slow reference."""
-        fol, cfg = self._follow, self.config.follow
-        cc = self._follower.correlation
-        if cc is None or cc < (cfg.min_correlation if fol.skin or not fol.skin_found else cfg.skinless_correlation):
-            log.debug("face lost: its crop no longer matches the reference (correlation %s)", cc)
-            return False
-        if fol.misses > cfg.max_misses:
-            return False
-        return UNIT_JUMP[0] < result.frame.unit / fol.unit_ref < UNIT_JUMP[1]
-
     def _boxes_now(self) -> np.ndarray:
         """The feature rectangles (len(BOX_NAMES), 4) of this frame: moved with the layout's eyes (translation
         only; the mouth also by its offset), clipped to the crop. The cheeks stay where the frame puts them."""
         return move_boxes(self._box_table, _SHIFTED, _MOUTH_BOX, self._place.shift, self._place.mouth_offset,
                           *self._size)
-
-    def _check_score(self) -> None:
-        """Now and then, how much the followed crop still looks like a face (smoothed); drop the frame if not.
-
-        Scored on the crop just measured, with the layout placed where the eyes put it. The bar is the least
-        likeness; at the first check after the face was found again, :data:`OWN_LIKENESS` of the best this face
-        has shown if higher (a face found again while a hand still covered part of it may sit off the face, and
-        looks less like it than the face did; another performer's face may look little like the profile's
-        layout all along, and expressions move the likeness of any face).
-        """
-        fol = self._follow
-        score = self._template.score(*self._last_measured)
-        fol.score = score if fol.score is None else 0.5 * (fol.score + score)
-        bar = self.config.follow.min_followed_score
-        if fol.found_again and fol.score_ref is not None:
-            bar = max(bar, OWN_LIKENESS * fol.score_ref)
-        fol.found_again = False
-        fol.score_ref = fol.score if fol.score_ref is None else max(fol.score_ref, fol.score)
-        if fol.score < bar:
-            log.debug("face lost: the followed crop no longer looks like a face (score %.2f)", fol.score)
-            fol.frame, fol.dropped = None, fol.frame
 
     def _acquire(self, rgb: np.ndarray, last: FaceFrame | None = None) -> Measurement | None:
         """Find the face afresh (:meth:`~.acquire.Acquirer.find`), the filters and the alignment restarted."""
