@@ -59,6 +59,7 @@ SAME_FACE = (0.25, 0.2)                 # face units, log size: the landmark bac
 ANCHOR_STEPS = 4                        # steps         most eye searches to find the eye blobs' fixed point
 ANCHOR_TOLERANCE = 0.25                 # crop pixels   step below which the fixed point is found
 WINDOW_SKIN = 0.3                       # fraction      of a cascade window's middle that must look like skin
+CASCADE_EVERY = 5                       # frames        while no face is found, the whole frame's cascade runs once in
 #: The eyes' correction of a frame that keeps it as it is (a, b, tx, ty).
 NO_CORRECTION = (1.0, 0.0, 0.0, 0.0)
 
@@ -150,6 +151,7 @@ class Acquirer:
         self.eye_window = eye_window
         self.landmarker = None          # the shared landmark backend, once needed (False: not available)
         self.landmark_wait = 0          # frames to wait before asking the landmark backend again
+        self.cascade_wait = 0           # frames to wait before the whole frame's cascade runs again
 
     def find(self, rgb: np.ndarray, last: FaceFrame | None = None) -> Measurement | None:
         """The measurement of the candidate frame that looks most like a face, or None.
@@ -168,6 +170,8 @@ class Acquirer:
                 self.place.light = last_light
         if best is None:
             best = self._search(rgb, last, last_light, None)
+            found = best is not None and best.score >= cfg.acquire.min_score
+            self.cascade_wait = 0 if found else (self.cascade_wait or CASCADE_EVERY - 1)
         if best is None or best.score < cfg.acquire.min_score:
             best = self._landmark_acquire(rgb)
         if best is None:
@@ -205,6 +209,10 @@ class Acquirer:
         # (skin-coloured scenes included): without any, the landmark backend places the face; and not when a
         # landmark model is given explicitly (it places the faces the skin model misses).
         use = cfg.acquire.cascade and hypotheses and cfg.landmarks.model is None
+        if use and roi is None:
+            # Over the whole frame the cascade costs most (all its passes run where it finds no face): while no
+            # face is found it runs every CASCADE_EVERY frames only.
+            use, self.cascade_wait = self.cascade_wait <= 0, max(self.cascade_wait - 1, 0)
         boxes = face_boxes(rgb, roi) if use else np.zeros((0, 4))
         boxes = np.array([b for b in boxes if max(_skin_share(rgb, b, k) for k in skins) >= WINDOW_SKIN]).reshape(-1, 4)
         hypotheses += [(None, f) for f in frames_of_boxes(boxes)]
