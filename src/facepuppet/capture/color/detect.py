@@ -34,9 +34,9 @@ CASCADE_FILE = "haarcascade_frontalface_default.xml"
 WINDOW = 24                     # pixels        the cascade's own window: the smallest face it finds
 #: Passes of the search, coarse to fine: each finds faces from this share of the searched area's smaller side up
 #: (the area shrunk so that such a face spans :data:`WINDOW` pixels); a pass runs only if those before found none.
-FACE_SIZES = (0.25, 0.1, 0.05)
+FACE_SIZES = (0.2, 0.08, 0.04)
 NEIGHBOURS = 4                  # windows       overlapping detections needed for a face (the cascade's minNeighbors)
-SCALE_STEP = 1.2                # ratio         between the window sizes tried
+SCALE_STEP = 1.15               # ratio         between the window sizes tried
 MAX_FACES = 3                   # faces         largest windows kept
 #: Where the eye centres sit in a detection window, (x, y) shares of its width and height (right eye, left eye).
 EYE_PLACES = ((0.31, 0.40), (0.69, 0.40))

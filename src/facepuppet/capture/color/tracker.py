@@ -152,6 +152,8 @@ class ColorTracker:
         self._place = Placement(anchors_px, anchors_px[:2].mean(axis=0),
                                 calibrated=config.landmarks.anchor_calibration <= 0)
         self._follow = FollowState()
+        #: Fresh searches for the face (acquisitions) since the tracker was made or reset.
+        self.searches = 0
         self._follower = Follower(self._size, px, config.follow)
         #: (face crop, its crop matrix, the layout placed on it) of the last frame whose curves were measured:
         #: where the profile's shape models learn (:func:`~facepuppet.capture.color.train.train_profile`).
@@ -443,6 +445,7 @@ class ColorTracker:
     def _acquire(self, rgb: np.ndarray, last: FaceFrame | None = None) -> Measurement | None:
         """Find the face afresh (:meth:`~.acquire.Acquirer.find`), the filters and the alignment restarted."""
         fol = self._follow
+        self.searches += 1
         self._smoother.reset()
         fol.pose = fol.turn_ms = None
         self._place.mouth_offset = np.zeros(2)
