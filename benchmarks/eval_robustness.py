@@ -15,7 +15,7 @@ a made-up scene, the kind of room that fools a skin-colour model:
 - ``beige``: a beige wall under a warm light falling off from the left;
 - ``skin_object``: wood with a face-sized object of the performer's own skin colour beside the face;
 - ``poster``: wood with a drawn face (skin oval, dark eyes and brows, nostrils, mouth) beside the face;
-- ``stage_hand``: a dark stage with props, the frame shrunk to 3/10 (a face about 80-120 px wide), a hand of the
+- ``stage_hand``: a dark stage with props, the frame shrunk to 0.42 (a face about 90-115 px wide), a hand of the
   performer's skin colour passing over the lower face twice.
 
 Each copy is written as MPEG-4 into a temporary folder, tracked with ``--backend color`` and the built-in
@@ -46,7 +46,7 @@ VARIANTS = ("dim", "warm", "noisy", "small")
 BACKGROUNDS = ("wood", "beige", "skin_object", "poster", "stage_hand")
 #: The face cut out: an oval centred this far below the eyes, with these half-axes (eye-centre distances).
 FACE_OVAL = (0.8, 1.2, 1.75)
-STAGE_SCALE = 0.3           # the stage copy's frame scale
+STAGE_SCALE = 0.42          # the stage copy's frame scale (a face about 90-115 px wide)
 
 
 def altered(rgb: np.ndarray, variant: str, rng: np.random.Generator) -> np.ndarray:
