@@ -59,6 +59,8 @@ SAME_FACE = (0.25, 0.2)                 # face units, log size: the landmark bac
 ANCHOR_STEPS = 4                        # steps         most eye searches to find the eye blobs' fixed point
 ANCHOR_TOLERANCE = 0.25                 # crop pixels   step below which the fixed point is found
 WINDOW_SKIN = 0.3                       # fraction      of a cascade window's middle that must look like skin
+LOST_SIZES = (0.65, 1.5)                # ratio         sizes a face just lost may be found again at, of its size
+LOST_ROLL = 0.5                         # radians       most roll a face just lost may be found again with
 CASCADE_EVERY = 5                       # frames        while no face is found, the whole frame's cascade runs once in
 #: The eyes' correction of a frame that keeps it as it is (a, b, tx, ty).
 NO_CORRECTION = (1.0, 0.0, 0.0, 0.0)
@@ -83,10 +85,16 @@ def fit_light(rgb: np.ndarray, frame: FaceFrame, M: np.ndarray, px: float, size:
 
 def likeness(result: Measurement, last: FaceFrame | None, resize_cost: float) -> float:
     """How much a measurement's crop looks like a face, less ``resize_cost`` per unit of log size change from
-    ``last``, the frame the face was just lost in (if any)."""
+    ``last``, the frame the face was just lost in (if any); -inf for a frame no face moves to from ``last`` in
+    the moments it is lost (a size outside :data:`LOST_SIZES` of its size, a roll more than :data:`LOST_ROLL`
+    from its roll: a hand over the face with the face's eyes, say)."""
     if last is None:
         return result.score
-    return result.score - resize_cost * abs(np.log(result.frame.unit / last.unit))
+    ratio = result.frame.unit / last.unit
+    roll = abs((result.frame.roll - last.roll + np.pi) % (2 * np.pi) - np.pi)
+    if not LOST_SIZES[0] < ratio < LOST_SIZES[1] or roll > LOST_ROLL:
+        return -np.inf
+    return result.score - resize_cost * abs(np.log(ratio))
 
 
 def mouth_offset(curves: np.ndarray, frame: FaceFrame, layout: np.ndarray, px: float) -> np.ndarray:
@@ -238,7 +246,7 @@ class Acquirer:
     def refine(self, rgb: np.ndarray, candidates: list[FaceFrame],
                last: FaceFrame | None = None) -> Measurement | None:
         """Pull each candidate face frame onto the eyes; the result that looks most like a face
-        (:func:`likeness` with ``last``), or None."""
+        (:func:`likeness` with ``last``; none a face just lost cannot move to), or None."""
         cost = self.tracker.config.acquire.resize_cost
         best = None
         for cand in candidates:
@@ -248,8 +256,9 @@ class Acquirer:
                 if result is None:
                     break
                 cand = result.frame
-            if result is not None and result.eyes_found and (best is None or
-                                                             likeness(result, last, cost) > likeness(best, last, cost)):
+            if result is None or not result.eyes_found or not np.isfinite(likeness(result, last, cost)):
+                continue
+            if best is None or likeness(result, last, cost) > likeness(best, last, cost):
                 best = result
         return best
 
