@@ -8,13 +8,24 @@ such footage from the shared clips and measures it with the shared yardstick:
 - ``noisy``: Gaussian noise of standard deviation 12 grey levels per channel (a cheap sensor in low light);
 - ``small``: the frame shrunk to 2/5 and set on a grey (90) frame of the original size (a face far away).
 
+Background copies: the face (an oval around MediaPipe's eyes on the original frame, feathered) cut out and set on
+a made-up scene, the kind of room that fools a skin-colour model:
+
+- ``wood``: warm wooden boards;
+- ``beige``: a beige wall under a warm light falling off from the left;
+- ``skin_object``: wood with a face-sized object of the performer's own skin colour beside the face;
+- ``poster``: wood with a drawn face (skin oval, dark eyes and brows, nostrils, mouth) beside the face;
+- ``stage_hand``: a dark stage with props, the frame shrunk to 0.42 (a face about 90-115 px wide), a hand of the
+  performer's skin colour passing over the lower face twice.
+
 Each copy is written as MPEG-4 into a temporary folder, tracked with ``--backend color`` and the built-in
 profile (no landmark model: the copies test the colour pipeline alone), and scored by
 ``../shared/eval/track_agreement.py`` (mean NME against MediaPipe on the same frames, jitter ratio, coverage).
 The bars of the shared clips are NME <= 0.05, jitter ratio <= 1.5, coverage >= 0.98.
 
-Run: ``python benchmarks/eval_robustness.py [--clips performer_a performer_c] [--variants dim warm noisy small]
-[--assets PATH] [--jobs 2]`` (about a minute per copy on one core, MediaPipe's reference included).
+Run: ``python benchmarks/eval_robustness.py [--clips performer_a performer_c] [--variants dim warm noisy small
+wood beige skin_object poster stage_hand] [--assets PATH] [--jobs 2]`` (about a minute per copy on one core,
+MediaPipe's reference included).
 """
 
 from __future__ import annotations
@@ -32,6 +43,10 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 VARIANTS = ("dim", "warm", "noisy", "small")
+BACKGROUNDS = ("wood", "beige", "skin_object", "poster", "stage_hand")
+#: The face cut out: an oval centred this far below the eyes, with these half-axes (eye-centre distances).
+FACE_OVAL = (0.8, 1.2, 1.75)
+STAGE_SCALE = 0.42          # the stage copy's frame scale (a face about 90-115 px wide)
 
 
 def altered(rgb: np.ndarray, variant: str, rng: np.random.Generator) -> np.ndarray:
@@ -56,19 +71,135 @@ def altered(rgb: np.ndarray, variant: str, rng: np.random.Generator) -> np.ndarr
     return np.clip(x + 0.5, 0, 255).astype(np.uint8)
 
 
-def write_copy(src: Path, variant: str, out: Path) -> None:
-    """Write the ``variant`` copy of the video ``src`` to ``out`` (MPEG-4, same size and rate)."""
+def _scene(variant: str, shape: tuple[int, ...], skin: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """(H, W, 3) float32 RGB scene of a background copy."""
+    import cv2
+
+    h, w = shape[:2]
+    y, x = np.mgrid[0:h, 0:w].astype(np.float32)
+    grain = np.sin(x / 7.0 + 3.0 * np.sin(y / 40.0)) + 0.5 * np.sin(x / 2.3 + y / 90.0)
+    img = np.ascontiguousarray(np.array([196.0, 140.0, 96.0])[None, None] * (1.0 + 0.12 * grain[..., None]),
+                               dtype=np.float32)
+    sk = tuple(float(v) for v in skin)
+    d = 0.2 * w                                   # eye distance of the object or poster beside the face
+    if variant == "beige":
+        ramp = (1.25 - 0.55 * x / w)[..., None] * (1.0 - 0.15 * y / h)[..., None]
+        img = np.array([214.0, 188.0, 160.0])[None, None] * ramp * np.array([1.0, 0.93, 0.8])
+    elif variant == "skin_object":
+        cv2.ellipse(img, ((0.1 * w, 0.55 * h), (2.4 * d, 3.4 * d), 10.0), sk, -1)
+    elif variant == "poster":
+        cx, cy, dark = 0.1 * w, 0.4 * h, tuple(float(v) for v in 0.3 * skin)
+        cv2.ellipse(img, ((cx, cy + 0.8 * d), (2.4 * d, 3.5 * d), 0.0), sk, -1)
+        for s in (-1, 1):
+            cv2.ellipse(img, ((cx + 0.5 * s * d, cy), (0.45 * d, 0.2 * d), 0.0), dark, -1)
+            cv2.ellipse(img, ((cx + 0.5 * s * d, cy - 0.35 * d), (0.6 * d, 0.12 * d), 0.0), dark, -1)
+        cv2.ellipse(img, ((cx, cy + 1.15 * d), (0.8 * d, 0.15 * d), 0.0), tuple(float(v) for v in 0.5 * skin), -1)
+    elif variant == "stage_hand":
+        img = np.full((h, w, 3), 28.0, np.float32) * (0.8 + 0.4 * y[..., None] / h)
+        for _ in range(14):
+            x0, y0 = int(rng.integers(0, w - 40)), int(rng.integers(0, h - 40))
+            cv2.rectangle(img, (x0, y0), (x0 + int(rng.integers(20, 160)), y0 + int(rng.integers(10, 120))),
+                          tuple(float(v) for v in rng.uniform(15, 110, 3)), -1)
+    return np.clip(img + rng.normal(0.0, 3.0, img.shape), 0, 255).astype(np.float32)
+
+
+def _oval(eyes: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """(H, W) float32 feathered face oval of :data:`FACE_OVAL` around the eye centres (2, 2) (right, left)."""
+    import cv2
+
+    right, left = eyes
+    d = float(np.linalg.norm(left - right))
+    across = (left - right) / max(d, 1e-6)
+    centre = 0.5 * (left + right) + FACE_OVAL[0] * d * np.array([-across[1], across[0]])
+    m = np.zeros(shape[:2], np.float32)
+    cv2.ellipse(m, (tuple(map(float, centre)), (2 * FACE_OVAL[1] * d, 2 * FACE_OVAL[2] * d),
+                    float(np.degrees(np.arctan2(across[1], across[0])))), 1.0, -1)
+    return cv2.GaussianBlur(m, (0, 0), 3.0)
+
+
+def _hand(shape: tuple[int, ...], centre: np.ndarray, size: float) -> np.ndarray:
+    """(H, W) float32 mask of a hand (palm, four fingers, thumb) of palm width ``size``, tilted 20 degrees."""
+    import cv2
+
+    m = np.zeros(shape[:2], np.float32)
+    a = np.radians(-20.0)
+    at = lambda u, v: (float(centre[0] + size * (np.cos(a) * u - np.sin(a) * v)),  # noqa: E731
+                       float(centre[1] + size * (np.sin(a) * u + np.cos(a) * v)))
+    cv2.ellipse(m, (at(0, 0), (size, 1.15 * size), -20.0), 1.0, -1)
+    for u, length in zip((-0.33, -0.11, 0.11, 0.33), (0.75, 0.9, 0.85, 0.65), strict=True):
+        cv2.ellipse(m, (at(u, -0.5 - length / 2), (0.2 * size, length * size), -20.0), 1.0, -1)
+    cv2.ellipse(m, (at(0.6, -0.05), (0.22 * size, 0.6 * size), -70.0), 1.0, -1)
+    return cv2.GaussianBlur(m, (0, 0), 1.5)
+
+
+def composited(src: Path, variant: str, model: str):
+    """The frames (RGB uint8) of a background copy of the video ``src``: the face cut out around MediaPipe's
+    eyes (``model``) and set on the variant's scene; a frame without a face keeps the last face's oval."""
+    import cv2
+
+    from facepuppet.capture.curves import CURVE_NAMES
+    from facepuppet.capture.tracking import make_tracker
+    from facepuppet.io.frames import open_media
+
+    k = {n: i for i, n in enumerate(CURVE_NAMES)}
+    eye_r, eye_rl, eye_l, lip = k["eye_right_upper"], k["eye_right_lower"], k["eye_left_upper"], k["lip_upper_outer"]
+    mp = make_tracker("mediapipe", model_path=model, running_mode="video")
+    rng = np.random.default_rng(0)
+    back, eyes, skin, mouth = None, None, None, None
+    try:
+        with open_media(src) as frames:
+            for i, rgb in enumerate(frames):
+                f = mp.track(rgb, int(round(i * 1000 / frames.fps)))
+                if f.valid:
+                    c = f.curves
+                    eyes = np.stack([c[j][[0, 3]].mean(axis=0) for j in (eye_r, eye_l)])
+                    mouth = c[lip].mean(axis=0)
+                    if skin is None:                                                # a cheek below the right eye
+                        p = np.round(0.5 * (c[eye_rl, 1] + c[lip, 0])).astype(int)
+                        skin = rgb[p[1] - 4:p[1] + 4, p[0] - 4:p[0] + 4].reshape(-1, 3).mean(axis=0)
+                if eyes is None:
+                    continue
+                img, e, mo = rgb.astype(np.float32), eyes, mouth
+                if variant == "stage_hand":
+                    h, w = rgb.shape[:2]
+                    M = np.array([[STAGE_SCALE, 0.0, 0.35 * w], [0.0, STAGE_SCALE, 0.25 * h]])
+                    img = cv2.warpAffine(rgb, M, (w, h), flags=cv2.INTER_AREA).astype(np.float32)
+                    e, mo = eyes * STAGE_SCALE + M[:, 2], mouth * STAGE_SCALE + M[:, 2]
+                if back is None:
+                    back = _scene(variant, rgb.shape, skin, rng)
+                m = _oval(e, rgb.shape)[..., None]
+                out = m * img + (1.0 - m) * back
+                t = (i % 90) / 89.0
+                if variant == "stage_hand" and 0.3 < t < 0.7:              # the hand passes, 36 of every 90 frames
+                    unit = float(np.linalg.norm(e[1] - e[0]))
+                    q = np.sin(np.pi * (t - 0.3) / 0.4)
+                    hand = _hand(rgb.shape, mo + [unit * (2.6 - 4.4 * q), 0.5 * unit], 1.8 * unit)[..., None]
+                    out = hand * skin + (1.0 - hand) * out
+                yield np.clip(out, 0, 255).astype(np.uint8)
+    finally:
+        mp.close()
+
+
+def write_copy(src: Path, variant: str, out: Path, model: str | None = None) -> None:
+    """Write the ``variant`` copy of the video ``src`` to ``out`` (MPEG-4, same size and rate); the background
+    copies need MediaPipe's ``model``."""
     import cv2
 
     cap = cv2.VideoCapture(str(src))
     fps = cap.get(cv2.CAP_PROP_FPS) or 30.0
     rng = np.random.default_rng(0)
     writer = None
+    scenes = composited(src, variant, model) if variant in BACKGROUNDS else None
     while True:
         ok, bgr = cap.read()
         if not ok:
             break
-        rgb = altered(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), variant, rng)
+        if scenes is not None:
+            rgb = next(scenes, None)
+            if rgb is None:
+                break
+        else:
+            rgb = altered(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), variant, rng)
         if writer is None:
             writer = cv2.VideoWriter(str(out), cv2.VideoWriter_fourcc(*"mp4v"), fps, rgb.shape[1::-1])
         writer.write(cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
@@ -87,7 +218,8 @@ def measure(job: tuple[str, str, str, str]) -> tuple[str, str, str]:
     from facepuppet.io.track import save_track
 
     video = Path(tmp) / f"{clip}_{variant}.mp4"
-    write_copy(Path(assets) / "video" / f"{clip}.mp4", variant, video)
+    write_copy(Path(assets) / "video" / f"{clip}.mp4", variant, video,
+               model=str(Path(assets) / "models" / "face_landmarker.task"))
     track = Path(tmp) / f"{clip}_{variant}.npz"
     save_track(track, track_media(video, ColorTracker(), progress=False))
     env = dict(os.environ, FACEPUPPET_FACE_LANDMARKER=str(Path(assets) / "models" / "face_landmarker.task"))
@@ -100,7 +232,7 @@ def measure(job: tuple[str, str, str, str]) -> tuple[str, str, str]:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--clips", nargs="+", default=["performer_a", "performer_c"])
-    ap.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=VARIANTS)
+    ap.add_argument("--variants", nargs="+", default=list(VARIANTS + BACKGROUNDS), choices=VARIANTS + BACKGROUNDS)
     ap.add_argument("--assets", default=str(ROOT.parent / "shared" / "assets"))
     ap.add_argument("--jobs", type=int, default=2, help="copies measured at once (processes)")
     args = ap.parse_args(argv)

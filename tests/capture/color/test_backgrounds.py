@@ -1,6 +1,14 @@
-"""The colour tracker in front of skin-coloured scenes: the shared performers composited onto warm wood, a wall
-of the performer's own skin colour and a blotchy warm texture, all made here. The face must still be found
-and followed (curves near MediaPipe's on the original frames) and no frame tracked on the background."""
+"""The colour tracker in front of skin-coloured and cluttered scenes, all made here from the shared clips.
+
+- performer_c composited onto warm wood, a wall of the performer's own skin colour, a blotchy warm texture, a
+  beige wall under a warm light gradient, wood with a face-sized skin-coloured object beside the face, and wood
+  with a drawn face (a poster: skin oval, dark eyes, brows, nostrils and mouth) beside it: the face is found and
+  followed (curves near MediaPipe's on the original frames) and no frame is tracked on the background;
+- performer_a small (a face about 100 px wide) on a dark, cluttered stage, a skin-coloured hand (palm and
+  fingers in the performer's skin colour) passing over the lower face: frames where the face is mostly seen are
+  tracked near MediaPipe's curves, frames where it is mostly covered are not valid or still on the face, never on
+  the hand, and the face is tracked again once the hand has gone.
+"""
 
 import cv2
 import numpy as np
@@ -13,6 +21,12 @@ _IDX = {n: i for i, n in enumerate(CURVE_NAMES)}
 MEASURED = [n for n in CURVE_NAMES if not n.startswith("nostril")]
 #: The face cut out: an oval centred this far below the eyes, with these half-axes (eye-centre distances).
 FACE_OVAL = (0.8, 1.2, 1.75)
+#: Width of the canvas of the wide scenes (the clip's frames sit in its middle), pixels.
+WIDE = 720
+#: The stage: its size (w, h), the performer's scale on it and where the frame's corner goes.
+STAGE = ((640, 480), 0.3, (250, 120))
+#: Farthest a tracked eye centre may lie from the reference's while the hand passes, eye-centre distances.
+EYES_OFF = 0.35
 
 
 def _nme(ours, ref):
@@ -22,11 +36,15 @@ def _nme(ours, ref):
     return float(np.mean(d) / span)
 
 
+def _eyes(curves):
+    """(right, left) eye centres (2, 2) of a frame's curves."""
+    return np.stack([curves[_IDX[f"eye_{s}_upper"]][[0, 3]].mean(axis=0) for s in ("right", "left")])
+
+
 def _face_mask(curves, shape):
     """(H, W) float32 in [0, 1]: the face's oval from the reference eyes, feathered: centred :data:`FACE_OVAL`
     [0] eye-centre distances below the eyes' midpoint, half-axes :data:`FACE_OVAL` [1:] of that distance."""
-    right = curves[_IDX["eye_right_upper"]][[0, 3]].mean(axis=0)
-    left = curves[_IDX["eye_left_upper"]][[0, 3]].mean(axis=0)
+    right, left = _eyes(curves)
     d = float(np.linalg.norm(left - right))
     across = (left - right) / d
     down = np.array([-across[1], across[0]])
@@ -37,31 +55,65 @@ def _face_mask(curves, shape):
     return cv2.GaussianBlur(m, (0, 0), 3.0)
 
 
+def _poster(img, centre, d, skin):
+    """Draw a face-like pattern (skin oval, dark eyes and brows, nostrils, a mouth line) of eye distance ``d``."""
+    cx, cy = centre
+    dark = tuple(float(v) for v in 0.3 * skin)
+    cv2.ellipse(img, ((cx, cy + 0.8 * d), (2.4 * d, 3.5 * d), 0.0), tuple(float(v) for v in skin), -1)
+    for s in (-1, 1):
+        cv2.ellipse(img, ((cx + 0.5 * s * d, cy), (0.45 * d, 0.2 * d), 0.0), dark, -1)
+        cv2.ellipse(img, ((cx + 0.5 * s * d, cy - 0.35 * d), (0.6 * d, 0.12 * d), 0.0), dark, -1)
+        cv2.circle(img, (int(cx + 0.15 * s * d), int(cy + 0.75 * d)), max(1, int(0.06 * d)), dark, -1)
+    cv2.ellipse(img, ((cx, cy + 1.15 * d), (0.8 * d, 0.15 * d), 0.0), tuple(float(v) for v in 0.5 * skin), -1)
+
+
 def _background(kind, shape, skin, rng):
+    """(H, W, 3) float32 RGB background of ``kind``."""
     h, w = shape[:2]
     y, x = np.mgrid[0:h, 0:w].astype(np.float32)
+    grain = np.sin(x / 7.0 + 3.0 * np.sin(y / 40.0)) + 0.5 * np.sin(x / 2.3 + y / 90.0)
+    wood = np.array([196.0, 140.0, 96.0])[None, None] * (1.0 + 0.12 * grain[..., None])
     if kind == "wood":
-        grain = np.sin(x / 7.0 + 3.0 * np.sin(y / 40.0)) + 0.5 * np.sin(x / 2.3 + y / 90.0)
-        base = np.array([196.0, 140.0, 96.0])
-        img = base[None, None] * (1.0 + 0.12 * grain[..., None])
+        img = wood
     elif kind == "skin wall":
         img = np.broadcast_to(skin, (h, w, 3)).astype(np.float32) * (0.9 + 0.2 * x[..., None] / w)
-    else:                                   # blotchy warm texture with dark flecks
+    elif kind == "texture":                 # blotchy warm texture with dark flecks
         noise = cv2.GaussianBlur(rng.normal(size=(h, w)).astype(np.float32), (0, 0), 9.0)
         noise /= noise.std() + 1e-6
         img = np.array([205.0, 150.0, 115.0])[None, None] * (1.0 + 0.15 * noise[..., None])
         flecks = cv2.GaussianBlur((rng.random((h, w)) < 0.002).astype(np.float32), (0, 0), 2.0) * 40.0
         img = img * (1.0 - np.clip(flecks, 0, 0.6))[..., None]
+    elif kind == "beige gradient":          # a beige wall lit by a warm lamp on the left
+        ramp = (1.25 - 0.55 * x / w)[..., None] * (1.0 - 0.15 * y / h)[..., None]
+        img = np.array([214.0, 188.0, 160.0])[None, None] * ramp * np.array([1.0, 0.93, 0.8])
+    elif kind in ("wood and skin", "wood and poster"):
+        img = np.ascontiguousarray(wood, dtype=np.float32)
+        d = 95.0
+        if kind == "wood and skin":         # a face-sized, skin-coloured object: a bare arm's or a lampshade's size
+            cv2.ellipse(img, ((120.0, 260.0), (2.4 * d, 3.4 * d), 10.0), tuple(float(v) for v in skin), -1)
+        else:
+            _poster(img, (120.0, 200.0), d, skin)
+    elif kind == "stage":                   # dark, with props: boxes and poles in dim, warm and grey tones
+        img = np.full((h, w, 3), 28.0, np.float32) * (0.8 + 0.4 * y[..., None] / h)
+        for _ in range(14):
+            x0, y0 = int(rng.integers(0, w - 40)), int(rng.integers(0, h - 40))
+            cv2.rectangle(img, (x0, y0), (x0 + int(rng.integers(20, 160)), y0 + int(rng.integers(10, 120))),
+                          tuple(float(v) for v in rng.uniform(15, 110, 3)), -1)
+        for _ in range(5):
+            x0 = int(rng.integers(0, w))
+            tone = tuple(float(v) for v in rng.uniform(40, 140, 3))
+            cv2.line(img, (x0, 0), (x0 + int(rng.integers(-60, 60)), h), tone, int(rng.integers(2, 9)))
+    else:
+        raise ValueError(kind)
     img = img + rng.normal(0.0, 3.0, size=img.shape)
     return np.clip(img, 0, 255).astype(np.float32)
 
 
-@pytest.fixture(scope="module")
-def performer(assets, face_landmarker):
-    """60 frames (every 2nd of the first 120) of performer_c, MediaPipe's curves and the face's skin colour."""
+def _clip(assets, face_landmarker, name):
+    """60 frames (every 2nd of the first 120) of ``name``, MediaPipe's curves and the face's skin colour."""
     from facepuppet.capture.tracking import make_tracker
 
-    cap = cv2.VideoCapture(str(assets / "video" / "performer_c.mp4"))
+    cap = cv2.VideoCapture(str(assets / "video" / f"{name}.mp4"))
     frames = []
     for k in range(120):
         ok, bgr = cap.read()
@@ -84,26 +136,109 @@ def performer(assets, face_landmarker):
     return frames, ref, skin
 
 
-@pytest.mark.parametrize("kind", ["wood", "skin wall", "texture"])
+@pytest.fixture(scope="module")
+def performer(assets, face_landmarker):
+    return _clip(assets, face_landmarker, "performer_c")
+
+
+@pytest.fixture(scope="module")
+def performer_a(assets, face_landmarker):
+    return _clip(assets, face_landmarker, "performer_a")
+
+
+def _inside(point, mask):
+    x, y = np.round(point).astype(int)
+    return 0 <= y < mask.shape[0] and 0 <= x < mask.shape[1] and mask[y, x] > 0.5
+
+
+@pytest.mark.parametrize("kind", ["wood", "skin wall", "texture", "beige gradient", "wood and skin",
+                                  "wood and poster"])
 def test_face_on_a_skin_coloured_background(performer, kind):
     frames, ref, skin = performer
     rng = np.random.default_rng(7)
-    back = _background(kind, frames[0].shape, skin, rng)
+    h, w = frames[0].shape[:2]
+    wide = kind.startswith("wood and")
+    shape = (h, WIDE, 3) if wide else frames[0].shape
+    dx = (WIDE - w) // 2 if wide else 0          # the clip's frame sits in the canvas' middle
+    back = _background(kind, shape, skin, rng)
     tracker = ColorTracker()
     nme, found = [], 0
     for i, (rgb, r) in enumerate(zip(frames, ref, strict=True)):
-        m = _face_mask(r, rgb.shape)[..., None]
-        comp = np.clip(m * rgb + (1.0 - m) * back, 0, 255).astype(np.uint8)
+        r = r + [dx, 0]
+        canvas = np.zeros(shape, np.float32)
+        canvas[:, dx:dx + w] = rgb
+        m = _face_mask(r, shape)[..., None]
+        comp = np.clip(m * canvas + (1.0 - m) * back, 0, 255).astype(np.uint8)
         f = tracker.track(comp, 66 * i)
         if not f.valid:
             continue
         found += 1
         # Never on the background: both tracked eyes inside the face.
-        for eye in ("eye_left_upper", "eye_right_upper"):
-            centre = np.round(f.curves[_IDX[eye]][[0, 3]].mean(axis=0)).astype(int)
-            inside = 0 <= centre[1] < m.shape[0] and 0 <= centre[0] < m.shape[1] and m[centre[1], centre[0], 0] > 0.5
-            assert inside, (kind, i, eye, centre)
+        for eye in _eyes(f.curves):
+            assert _inside(eye, m[..., 0]), (kind, i, eye)
         nme.append(_nme(f.curves, r))
-    # Measured: every frame found, mean NME 0.027-0.029 (0.02-0.03 on the clip as filmed).
+    # Measured: every frame found, mean NME 0.027-0.03 (0.02-0.03 on the clip as filmed).
     assert found == len(frames), (kind, found)
     assert np.mean(nme) < 0.035, (kind, np.mean(nme))
+
+
+def _hand(shape, centre, size, skin, angle):
+    """(H, W) float32 mask of a hand: a palm ellipse and four fingers and a thumb, ``size`` the palm's width."""
+    m = np.zeros(shape[:2], np.float32)
+    cx, cy = centre
+    c, s = np.cos(np.radians(angle)), np.sin(np.radians(angle))
+
+    def at(u, v):                         # hand coordinates (palm widths, up the fingers) -> image
+        return (float(cx + size * (c * u - s * v)), float(cy + size * (s * u + c * v)))
+
+    cv2.ellipse(m, (at(0, 0), (size, 1.15 * size), angle), 1.0, -1)
+    for k, u in enumerate((-0.33, -0.11, 0.11, 0.33)):
+        length = (0.75, 0.9, 0.85, 0.65)[k]
+        cv2.ellipse(m, (at(u, -0.5 - length / 2), (0.2 * size, length * size), angle), 1.0, -1)
+    cv2.ellipse(m, (at(0.6, -0.05), (0.22 * size, 0.6 * size), angle - 50.0), 1.0, -1)
+    return cv2.GaussianBlur(m, (0, 0), 1.5)
+
+
+def test_small_face_on_a_stage_with_a_hand_passing(performer_a):
+    frames, ref, skin = performer_a
+    rng = np.random.default_rng(3)
+    (sw, sh), scale, (ox, oy) = STAGE
+    back = _background("stage", (sh, sw, 3), skin, rng)
+    M = np.array([[scale, 0.0, ox], [0.0, scale, oy]])
+    tracker = ColorTracker()
+    n = len(frames)
+    # The hand comes in from the right over the mouth and cheek in frames 20-39 and leaves again.
+    passing = range(20, 40)
+    shading = np.clip(skin[None, None] * 1.0, 0, 255)
+    seen_err, covered, after = [], [], []
+    for i, (rgb, r) in enumerate(zip(frames, ref, strict=True)):
+        r = r * scale + [ox, oy]
+        small = cv2.warpAffine(rgb, M, (sw, sh), flags=cv2.INTER_AREA)
+        face = _face_mask(r, (sh, sw))
+        comp = face[..., None] * small + (1.0 - face[..., None]) * back
+        hand = np.zeros((sh, sw), np.float32)
+        if i in passing:
+            t = (i - passing.start) / (len(passing) - 1)
+            mouth = r[_IDX["lip_upper_outer"]].mean(axis=0)
+            unit = float(np.linalg.norm(np.subtract(*_eyes(r))))
+            centre = mouth + [unit * (2.6 - 4.4 * np.sin(np.pi * t)), 0.5 * unit]
+            hand = _hand((sh, sw), centre, 1.8 * unit, skin, -20.0)
+            tone = shading * (0.9 + 0.1 * rng.random())
+            comp = hand[..., None] * tone + (1.0 - hand[..., None]) * comp
+        comp = np.clip(comp, 0, 255).astype(np.uint8)
+        f = tracker.track(comp, 66 * i)
+        hidden = float((face * hand).sum() / face.sum())
+        if f.valid:                       # on the face, not carried off by the hand
+            unit = float(np.linalg.norm(np.subtract(*_eyes(r))))
+            err = np.linalg.norm(_eyes(f.curves) - _eyes(r), axis=1).max() / unit
+            assert err < EYES_OFF, (i, err, hidden)
+        if hidden < 0.1:
+            assert f.valid, (i, hidden)
+            (after if i >= passing.stop else seen_err).append(_nme(f.curves, r))
+        elif hidden > 0.35:
+            covered.append(f.valid)
+    # Measured: the eyes within 0.24 eye distances of MediaPipe's while the hand passes (some of the mostly
+    # covered frames not valid), NME 0.037 where the face is seen before and beside the hand, 0.028 after it.
+    assert covered, "the hand never covered the face"
+    assert len(after) == n - passing.stop, len(after)
+    assert np.mean(seen_err) < 0.045 and np.mean(after) < 0.035, (np.mean(seen_err), np.mean(after))

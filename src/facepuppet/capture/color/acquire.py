@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 
 from facepuppet.capture.color.config import ColorTrackerConfig
-from facepuppet.capture.color.detect import face_boxes, frames_of_boxes, inside_box
+from facepuppet.capture.color.detect import face_boxes, frames_of_boxes, inside_box, search_area
 from facepuppet.capture.color.eye_anchors import (
     calibrated_anchors,
     eye_centres,
@@ -28,6 +28,7 @@ from facepuppet.capture.color.eye_anchors import (
 )
 from facepuppet.capture.color.face import (
     FaceFrame,
+    SkinModel,
     find_face,
     light_balance,
     same_frame,
@@ -58,6 +59,9 @@ SAME_FACE = (0.25, 0.2)                 # face units, log size: the landmark bac
 ANCHOR_STEPS = 4                        # steps         most eye searches to find the eye blobs' fixed point
 ANCHOR_TOLERANCE = 0.25                 # crop pixels   step below which the fixed point is found
 WINDOW_SKIN = 0.3                       # fraction      of a cascade window's middle that must look like skin
+LOST_SIZES = (0.65, 1.5)                # ratio         sizes a face just lost may be found again at, of its size
+LOST_ROLL = 0.5                         # radians       most roll a face just lost may be found again with
+CASCADE_EVERY = 5                       # frames        while no face is found, the whole frame's cascade runs once in
 #: The eyes' correction of a frame that keeps it as it is (a, b, tx, ty).
 NO_CORRECTION = (1.0, 0.0, 0.0, 0.0)
 
@@ -81,10 +85,16 @@ def fit_light(rgb: np.ndarray, frame: FaceFrame, M: np.ndarray, px: float, size:
 
 def likeness(result: Measurement, last: FaceFrame | None, resize_cost: float) -> float:
     """How much a measurement's crop looks like a face, less ``resize_cost`` per unit of log size change from
-    ``last``, the frame the face was just lost in (if any)."""
+    ``last``, the frame the face was just lost in (if any); -inf for a frame no face moves to from ``last`` in
+    the moments it is lost (a size outside :data:`LOST_SIZES` of its size, a roll more than :data:`LOST_ROLL`
+    from its roll: a hand over the face with the face's eyes, say)."""
     if last is None:
         return result.score
-    return result.score - resize_cost * abs(np.log(result.frame.unit / last.unit))
+    ratio = result.frame.unit / last.unit
+    roll = abs((result.frame.roll - last.roll + np.pi) % (2 * np.pi) - np.pi)
+    if not LOST_SIZES[0] < ratio < LOST_SIZES[1] or roll > LOST_ROLL:
+        return -np.inf
+    return result.score - resize_cost * abs(np.log(ratio))
 
 
 def mouth_offset(curves: np.ndarray, frame: FaceFrame, layout: np.ndarray, px: float) -> np.ndarray:
@@ -149,36 +159,70 @@ class Acquirer:
         self.eye_window = eye_window
         self.landmarker = None          # the shared landmark backend, once needed (False: not available)
         self.landmark_wait = 0          # frames to wait before asking the landmark backend again
+        self.cascade_wait = 0           # frames to wait before the whole frame's cascade runs again
 
     def find(self, rgb: np.ndarray, last: FaceFrame | None = None) -> Measurement | None:
         """The measurement of the candidate frame that looks most like a face, or None.
 
         ``last``: the frame the face was followed in until now, if it was just lost (a candidate too, in the
-        light it was followed in).
+        light it was followed in). Then the search runs near it first (:func:`~.detect.search_area`: the skin
+        regions and the cascade's windows there), and over the whole frame only if no face is found near it.
         """
+        cfg = self.tracker.config
+        last_light = self.place.light
+        best = None
+        if last is not None:
+            best = self._search(rgb, last, last_light, search_area(last, rgb.shape))
+            if best is None or best.score < cfg.acquire.min_score:
+                best = None
+                self.place.light = last_light
+        if best is None:
+            best = self._search(rgb, last, last_light, None)
+            found = best is not None and best.score >= cfg.acquire.min_score
+            self.cascade_wait = 0 if found else (self.cascade_wait or CASCADE_EVERY - 1)
+        if best is None or best.score < cfg.acquire.min_score:
+            best = self._landmark_acquire(rgb)
+        if best is None:
+            return None
+        if not self.place.calibrated:
+            self.place.calibrated = True
+            placed = self._calibrate_anchors(rgb, best.frame)
+            if placed is not None:
+                best = self._settle(rgb, placed) or best
+        return best
+
+    def _search(self, rgb: np.ndarray, last: FaceFrame | None, last_light: np.ndarray | None,
+                roi: tuple[int, int, int, int] | None) -> Measurement | None:
+        """The best candidate of the whole frame or of its part ``roi`` (x0, y0, x1, y1), the light it is seen
+        in left in the placement; or None."""
         place, cfg = self.place, self.tracker.config
         cost = cfg.acquire.resize_cost
-        last_light = place.light
         # Skin regions of the frame as filmed and of the frame with its light's colour and level evened out
-        # (a warm, cool or dim light moves skin out of the skin model, or other things into it). The light of
+        # (a warm, cool or dim light moves skin out of the skin model, or other things into it), by the profile's
+        # skin model and by the generic one (the profile's is one performer's skin in one light). The light of
         # the hypothesis that looks most like a face is kept: the crops are evened out the same way until the
         # face is lost.
         best, light, seen = None, None, []
-        # Windows with a face's pattern of dark features: candidates of their own, and the support a candidate
-        # needs in a scene the skin model cannot tell from skin.
-        # Only where the skin model finds some skin region (skin-coloured scenes included): without any, the
-        # landmark backend places the face as before.
-        skin = self.tracker.profile.skin
+        skins = [self.tracker.profile.skin]
+        skins += [SkinModel()] if skins[0] != SkinModel() else []
         hypotheses = []
         for M in (None, light_balance(rgb)):
-            frame = find_face(rgb if M is None else cv2.transform(rgb, M), skin)
-            if frame is not None:
-                hypotheses.append((M, frame))
-        # (A landmark model given explicitly places faces the skin model misses; the cascade serves the tracker
-        # standing alone.)
+            shown = rgb if M is None else cv2.transform(rgb, M)
+            for skin in skins:
+                frame = find_face(shown, skin, roi=roi)
+                if frame is not None:
+                    hypotheses.append((M, frame))
+        # Windows with a face's pattern of dark features: candidates of their own, and the support a candidate
+        # needs in a scene the skin model cannot tell from skin. Only where a skin model finds some skin region
+        # (skin-coloured scenes included): without any, the landmark backend places the face; and not when a
+        # landmark model is given explicitly (it places the faces the skin model misses).
         use = cfg.acquire.cascade and hypotheses and cfg.landmarks.model is None
-        boxes = face_boxes(rgb) if use else np.zeros((0, 4))
-        boxes = np.array([b for b in boxes if _skin_share(rgb, b, skin) >= WINDOW_SKIN]).reshape(-1, 4)
+        if use and roi is None:
+            # Over the whole frame the cascade costs most (all its passes run where it finds no face): while no
+            # face is found it runs every CASCADE_EVERY frames only.
+            use, self.cascade_wait = self.cascade_wait <= 0, max(self.cascade_wait - 1, 0)
+        boxes = face_boxes(rgb, roi) if use else np.zeros((0, 4))
+        boxes = np.array([b for b in boxes if max(_skin_share(rgb, b, k) for k in skins) >= WINDOW_SKIN]).reshape(-1, 4)
         hypotheses += [(None, f) for f in frames_of_boxes(boxes)]
         if last is not None:
             hypotheses.insert(0, (last_light, last))
@@ -197,21 +241,12 @@ class Acquirer:
                 best, light = got, M
         place.light = (light if light is None or best is None
                        else fit_light(rgb, best.frame, light, cfg.measure.px, self.tracker.crop_size))
-        if best is None or best.score < cfg.acquire.min_score:
-            best = self._landmark_acquire(rgb)
-        if best is None:
-            return None
-        if not place.calibrated:
-            place.calibrated = True
-            placed = self._calibrate_anchors(rgb, best.frame)
-            if placed is not None:
-                best = self._settle(rgb, placed) or best
         return best
 
     def refine(self, rgb: np.ndarray, candidates: list[FaceFrame],
                last: FaceFrame | None = None) -> Measurement | None:
         """Pull each candidate face frame onto the eyes; the result that looks most like a face
-        (:func:`likeness` with ``last``), or None."""
+        (:func:`likeness` with ``last``; none a face just lost cannot move to), or None."""
         cost = self.tracker.config.acquire.resize_cost
         best = None
         for cand in candidates:
@@ -221,8 +256,9 @@ class Acquirer:
                 if result is None:
                     break
                 cand = result.frame
-            if result is not None and result.eyes_found and (best is None or
-                                                             likeness(result, last, cost) > likeness(best, last, cost)):
+            if result is None or not result.eyes_found or not np.isfinite(likeness(result, last, cost)):
+                continue
+            if best is None or likeness(result, last, cost) > likeness(best, last, cost):
                 best = result
         return best
 

@@ -49,7 +49,12 @@ class MeasureConfig:
 
 @dataclass(frozen=True, kw_only=True)
 class FollowConfig:
-    """Following a face found in the last frame.
+    """Following a face found in the last frame, on the evidence of the face itself.
+
+    The face is kept while its crop still matches the reference crop taken when it was found (the correlation of
+    the alignment), the eyes are found now and then, its cheeks look like skin as they did when it was found (or
+    the match is close), its size moves smoothly, and, checked now and then, it still looks somewhat like a face
+    (a low bar: the profile's layout may be another performer's).
 
     Attributes
     ----------
@@ -61,19 +66,24 @@ class FollowConfig:
         Gain of the filter on the eyes' correction of the followed face frame (1: no smoothing).
     max_misses : int
         Frames in a row without the eyes after which the face is searched afresh.
-    min_score : float
-        Least likeness to a face to keep following it.
+    min_correlation : float
+        Least correlation of the aligned crop with the reference to keep following (ECC's criterion, zero-mean
+        normalised, so a change of the light's level or contrast does not lower it).
+    skinless_correlation : float
+        Least correlation to keep following a crop whose cheeks do not look like skin (where they did when the face
+        was found).
     check_every : int
         Frames between checks that the followed crop still looks like a face.
     min_followed_score : float
-        Least likeness (averaged over checks) to keep following.
+        Least likeness to a face (averaged over checks) to keep following.
     """
 
     iterations: int = 2
     scale: float = 0.35
     frame_gain: float = 0.3
     max_misses: int = 15
-    min_score: float = 0.05
+    min_correlation: float = 0.5
+    skinless_correlation: float = 0.75
     check_every: int = 4
     min_followed_score: float = 0.1
 

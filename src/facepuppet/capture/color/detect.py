@@ -23,20 +23,25 @@ import numpy as np
 
 from facepuppet.capture.color.face import FaceFrame
 
-__all__ = ["CASCADE_FILE", "WORK_WIDTH", "EYE_PLACES", "face_boxes", "frames_of_boxes", "inside_box"]
+__all__ = ["CASCADE_FILE", "WINDOW", "FACE_SIZES", "EYE_PLACES", "face_boxes", "frames_of_boxes", "inside_box",
+           "search_area"]
 
 log = logging.getLogger(__name__)
 
 CASCADE_FILE = "haarcascade_frontalface_default.xml"
 
 # Tuning constants              unit          what it does
-WORK_WIDTH = 320                # pixels        width the frame is shrunk to for the search
-MIN_FACE = 0.08                 # fraction      smallest face window, of the shrunk frame's smaller side
+WINDOW = 24                     # pixels        the cascade's own window: the smallest face it finds
+#: Passes of the search, coarse to fine: each finds faces from this share of the searched area's smaller side up
+#: (the area shrunk so that such a face spans :data:`WINDOW` pixels); a pass runs only if those before found none.
+FACE_SIZES = (0.2, 0.08, 0.04)
 NEIGHBOURS = 4                  # windows       overlapping detections needed for a face (the cascade's minNeighbors)
 SCALE_STEP = 1.15               # ratio         between the window sizes tried
 MAX_FACES = 3                   # faces         largest windows kept
 #: Where the eye centres sit in a detection window, (x, y) shares of its width and height (right eye, left eye).
 EYE_PLACES = ((0.31, 0.40), (0.69, 0.40))
+#: The area searched around a face frame, in face units (x0, y0, x1, y1): the face and its own size around it.
+AROUND = (-3.2, -3.0, 3.2, 4.2)
 
 
 @lru_cache(maxsize=1)
@@ -50,24 +55,47 @@ def _cascade() -> cv2.CascadeClassifier | None:
     return None if cascade.empty() else cascade
 
 
-def face_boxes(rgb: np.ndarray) -> np.ndarray:
+def search_area(frame: FaceFrame, shape: tuple[int, ...]) -> tuple[int, int, int, int]:
+    """The part of an image of ``shape`` (H, W, ...) searched around face frame ``frame``: its box of
+    :data:`AROUND` (upright, whatever the roll), (x0, y0, x1, y1) pixels clipped to the image."""
+    h, w = shape[:2]
+    u = frame.unit
+    ox, oy = (float(v) for v in frame.origin)
+    return (max(0, int(ox + AROUND[0] * u)), max(0, int(oy + AROUND[1] * u)),
+            min(w, int(ox + AROUND[2] * u) + 1), min(h, int(oy + AROUND[3] * u) + 1))
+
+
+def face_boxes(rgb: np.ndarray, roi: tuple[int, int, int, int] | None = None) -> np.ndarray:
     """Windows (N, 4) float (x, y, w, h), image pixels, largest first, that show a frontal face's pattern of
-    dark features; (0, 4) when none is found or the cascade is not installed."""
+    dark features, in the whole image or its part ``roi`` (x0, y0, x1, y1); (0, 4) when none is found or the
+    cascade is not installed.
+
+    The search runs coarse to fine (:data:`FACE_SIZES`): large faces on a small copy of the image first, the
+    smaller ones on a larger copy only if none was found; its cost grows with the pixels searched.
+    """
     cascade = _cascade()
     if cascade is None:
         return np.zeros((0, 4))
     h, w = rgb.shape[:2]
-    f = min(1.0, WORK_WIDTH / float(w))
-    grey = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
-    if f < 1.0:
-        grey = cv2.resize(grey, (max(1, round(w * f)), max(1, round(h * f))), interpolation=cv2.INTER_AREA)
-    grey = cv2.equalizeHist(grey)
-    side = max(12, int(MIN_FACE * min(grey.shape)))
-    found = cascade.detectMultiScale(grey, scaleFactor=SCALE_STEP, minNeighbors=NEIGHBOURS, minSize=(side, side))
-    if len(found) == 0:
+    x0, y0, x1, y1 = (0, 0, w, h) if roi is None else roi
+    if x1 - x0 < WINDOW or y1 - y0 < WINDOW:
         return np.zeros((0, 4))
-    boxes = np.asarray(found, dtype=float) / f
-    return boxes[np.argsort(-boxes[:, 2])][:MAX_FACES]
+    grey = cv2.cvtColor(np.ascontiguousarray(rgb[y0:y1, x0:x1]), cv2.COLOR_RGB2GRAY)
+    side = min(x1 - x0, y1 - y0)
+    larger = None
+    for share in FACE_SIZES:
+        f = min(1.0, WINDOW / (share * side))
+        g = grey if f >= 1.0 else cv2.resize(grey, (max(1, round((x1 - x0) * f)), max(1, round((y1 - y0) * f))),
+                                             interpolation=cv2.INTER_AREA)
+        g = cv2.equalizeHist(g)
+        top = (int(larger * f * SCALE_STEP) + 1,) * 2 if larger else (0, 0)
+        found = cascade.detectMultiScale(g, scaleFactor=SCALE_STEP, minNeighbors=NEIGHBOURS,
+                                         minSize=(WINDOW, WINDOW), maxSize=top)
+        if len(found):
+            boxes = np.asarray(found, dtype=float) / f + [x0, y0, 0, 0]
+            return boxes[np.argsort(-boxes[:, 2])][:MAX_FACES]
+        larger = share * side          # image pixels: the faces the coarser passes looked for
+    return np.zeros((0, 4))
 
 
 def frames_of_boxes(boxes: np.ndarray) -> list[FaceFrame]:

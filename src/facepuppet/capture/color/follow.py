@@ -1,4 +1,5 @@
-"""Following the face between frames: the face crop aligned on a reference crop of the acquisition (ECC).
+"""Following the face between frames: the face crop aligned on a reference crop of the acquisition (ECC), and
+the evidence that the face followed is still the face found (:class:`FollowState`).
 
 The search starts where the alignment put the face in the last frame, so a couple of steps suffice; the eyes
 then correct the result (:class:`~facepuppet.capture.color.tracker.ColorTracker`).
@@ -9,17 +10,81 @@ Conventions: crop matrices (2, 3) map image pixels to crop pixels; the aligned c
 
 from __future__ import annotations
 
+import logging
+from dataclasses import dataclass
+
 import cv2
 import numpy as np
 
 from facepuppet.capture.color.config import FollowConfig
 from facepuppet.capture.color.face import CROP_EXTENT, FaceFrame, then_affine
 
-__all__ = ["Follower", "ECC_EPS", "ECC_BLUR"]
+__all__ = ["Follower", "FollowState", "ECC_EPS", "ECC_BLUR", "UNIT_JUMP", "UNIT_GAIN", "LOST_MEMORY", "OWN_LIKENESS"]
+
+log = logging.getLogger(__name__)
 
 # Tuning constants       unit          what it does
 ECC_EPS = 1e-3           # correlation   the alignment's convergence tolerance (ECC)
 ECC_BLUR = 3             # pixels        Gaussian blur of the alignment's images (ECC)
+UNIT_JUMP = (0.65, 1.5)  # ratio         size change from the slow reference that loses the face
+UNIT_GAIN = 0.05         # per frame     gain of the slow reference size
+LOST_MEMORY = 30         # frames        a lost face's last frame is searched near this long
+OWN_LIKENESS = 0.6       # fraction      of the face's best likeness a face found again must show at its first check
+
+
+@dataclass
+class FollowState:
+    """The face being followed from frame to frame, and the evidence that it is still the face found."""
+
+    frame: FaceFrame | None = None          # the face frame of the last frame (None: lost)
+    misses: int = 0                         # frames in a row without the eyes
+    correction: np.ndarray | None = None    # the eyes' smoothed correction (a, b, tx, ty), crop pixels
+    unit_ref: float = 1.0                   # slow reference of the face's size, image pixels
+    skin: bool = True                       # whether the last measured crop's cheeks looked like skin
+    skin_found: bool = True                 # whether they did where the face was found
+    dropped: FaceFrame | None = None        # the frame the face was last followed in, while it is lost
+    lost_for: int = 0                       # frames since the face was lost
+    score: float | None = None              # smoothed likeness of the followed crop
+    score_ref: float | None = None          # the face's own likeness: the best smoothed one of this face
+    found_again: bool = False               # the face was found again after a loss and not checked since
+    tracked: int = 0                        # frames tracked
+    pose: object = None                     # the last head pose (the next solve starts there)
+    turn_ms: int | None = None              # time of the last head-turn reading
+
+    def still_the_face(self, frame: FaceFrame, correlation: float | None, config: FollowConfig) -> bool:
+        """Whether the evidence of the face itself says the followed face (now in ``frame``) is still there: the
+        crop's alignment on the reference crop of the acquisition succeeded and matches it (``correlation``,
+        :attr:`Follower.correlation`; closer where the cheeks no longer look like skin though they did), the
+        eyes were found within the last ``max_misses`` frames, and the face's size kept near its slow
+        reference (which then follows it)."""
+        bar = config.min_correlation if self.skin or not self.skin_found else config.skinless_correlation
+        if correlation is None or correlation < bar:
+            log.debug("face lost: its crop no longer matches the reference (correlation %s)", correlation)
+            return False
+        if self.misses > config.max_misses or not UNIT_JUMP[0] < frame.unit / self.unit_ref < UNIT_JUMP[1]:
+            return False
+        self.unit_ref += UNIT_GAIN * (frame.unit - self.unit_ref)
+        return True
+
+    def still_like_a_face(self, score: float, config: FollowConfig) -> bool:
+        """Now and then: whether the followed crop, of likeness ``score`` to a face, still looks like one (the
+        likeness smoothed over checks).
+
+        The bar is ``config.min_followed_score``; at the first check after the face was found again,
+        :data:`OWN_LIKENESS` of the best this face has shown if higher (a face found again while a hand still
+        covered part of it may sit off the face, and looks less like it than the face did; another performer's
+        face may look little like the profile's layout all along, and expressions move the likeness of any face).
+        """
+        self.score = score if self.score is None else 0.5 * (self.score + score)
+        bar = config.min_followed_score
+        if self.found_again and self.score_ref is not None:
+            bar = max(bar, OWN_LIKENESS * self.score_ref)
+        self.found_again = False
+        self.score_ref = self.score if self.score_ref is None else max(self.score_ref, self.score)
+        if self.score < bar:
+            log.debug("face lost: the followed crop no longer looks like a face (score %.2f)", self.score)
+            return False
+        return True
 
 
 class Follower:
@@ -43,6 +108,9 @@ class Follower:
         self.ref: np.ndarray | None = None
         #: Crop matrix (2, 3) where the alignment last put the face.
         self.followed: np.ndarray | None = None
+        #: The last alignment's correlation of the aligned crop with the reference (ECC's criterion, in [-1, 1]),
+        #: or None when it failed.
+        self.correlation: float | None = None
 
     def reset(self) -> None:
         """Forget the reference (the face is being acquired afresh)."""
@@ -68,12 +136,14 @@ class Follower:
         f = self.config.scale
         guess = then_affine(cv2.invertAffineTransform(self.followed), A)
         guess[:, 2] *= f
+        self.correlation = None
         try:
-            _, warp = cv2.findTransformECC(self.ref, self.grey(rgb, A), guess.astype(np.float32),
+            cc, warp = cv2.findTransformECC(self.ref, self.grey(rgb, A), guess.astype(np.float32),
                                            cv2.MOTION_AFFINE, (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS,
                                                                self.config.iterations, ECC_EPS), None, ECC_BLUR)
         except cv2.error:
             return None
+        self.correlation = float(cc)
         W = warp.astype(float)
         W[:, 2] /= f
         G = then_affine(W, cv2.invertAffineTransform(A))      # crop pixels -> image pixels, where the face is now

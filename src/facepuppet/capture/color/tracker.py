@@ -24,8 +24,16 @@ import numpy as np
 from facepuppet.capture.color.acquire import NO_CORRECTION, Acquirer
 from facepuppet.capture.color.config import ColorTrackerConfig
 from facepuppet.capture.color.eye_anchors import eye_centres
-from facepuppet.capture.color.face import CROP_EXTENT, FEATURE_BOXES, FaceFrame, box_in_crop, similarity_of_pairs
-from facepuppet.capture.color.follow import Follower
+from facepuppet.capture.color.face import (
+    CROP_EXTENT,
+    FEATURE_BOXES,
+    FaceFrame,
+    SkinModel,
+    box_in_crop,
+    same_frame,
+    similarity_of_pairs,
+)
+from facepuppet.capture.color.follow import LOST_MEMORY, Follower, FollowState
 from facepuppet.capture.color.head_turn import apply_turn_model, turn_angles, turn_rotation
 from facepuppet.capture.color.jobs import wait_pending
 from facepuppet.capture.color.lids import PATCH_SIZE, apply_lid_model
@@ -62,8 +70,6 @@ SNAKE_MARGIN = 8                   # crop pixels           around the mouth rect
 SNAKE_BLUR = 5                     # crop pixels           blur of the snakes' fields (:func:`.snakes.snake_fields`)
 SKIN_CHEEKS = 0.3                  # fraction              of the cheeks' pixels that must look like skin
 SCALE_STEP = (0.8, 1.25)           # ratio                 size change one frame's alignment or eye search may make
-UNIT_JUMP = (0.65, 1.5)            # ratio                 size change from the slow reference that loses the face
-UNIT_GAIN = 0.05                   # per frame             gain of the slow reference size
 
 _SHIFTED = np.array([not n.startswith("cheek") for n in BOX_NAMES])     # rectangles that follow the eyes
 _MOUTH_BOX = BOX_NAMES.index("mouth")
@@ -84,21 +90,6 @@ _SNAKE_CURVES = (("lip_upper_outer", UPPER),
 _SNAKE_IDX = np.array([_IDX[n] for n, _ in _SNAKE_CURVES], dtype=np.int64)
 _SNAKE_SIDE = np.array([s for _, s in _SNAKE_CURVES])
 _SNAKE_FIXED = np.ones(len(_SNAKE_CURVES), bool)
-
-
-@dataclass
-class _Following:
-    """The face being followed from frame to frame."""
-
-    frame: FaceFrame | None = None          # the face frame of the last frame (None: lost)
-    dropped: FaceFrame | None = None        # the frame the likeness check just dropped
-    misses: int = 0                         # frames in a row without the eyes
-    correction: np.ndarray | None = None    # the eyes' smoothed correction (a, b, tx, ty), crop pixels
-    unit_ref: float = 1.0                   # slow reference of the face's size, image pixels
-    score: float | None = None              # smoothed likeness of the followed crop
-    tracked: int = 0                        # frames tracked
-    pose: object = None                     # the last head pose (the next solve starts there)
-    turn_ms: int | None = None              # time of the last head-turn reading
 
 
 @dataclass
@@ -152,13 +143,17 @@ class ColorTracker:
         self._cheek_boxes = self._box_table[[_CHEEK_L, _CHEEK_R]]
         self._eye_boxes = self._box_table[[_EYE_L, _EYE_R]]
         self._skin_table = profile.skin.table()
+        generic_skin = SkinModel()
+        self._generic_skin = None if profile.skin == generic_skin else generic_skin.table()
         self._eye_window = (int(round(config.measure.eye_window[0] * px)),
                             int(round(config.measure.eye_window[1] * px)))
         self._layout_px = (np.asarray(profile.layout) - CROP_EXTENT[:2]) * px
         anchors_px = np.asarray((np.asarray(profile.anchors) - CROP_EXTENT[:2]) * px, dtype=float)
         self._place = Placement(anchors_px, anchors_px[:2].mean(axis=0),
                                 calibrated=config.landmarks.anchor_calibration <= 0)
-        self._follow = _Following()
+        self._follow = FollowState()
+        #: Fresh searches for the face (acquisitions) since the tracker was made or reset.
+        self.searches = 0
         self._follower = Follower(self._size, px, config.follow)
         #: (face crop, its crop matrix, the layout placed on it) of the last frame whose curves were measured:
         #: where the profile's shape models learn (:func:`~facepuppet.capture.color.train.train_profile`).
@@ -229,26 +224,29 @@ class ColorTracker:
         result = None
         if fol.frame is not None:
             result = self.measure(rgb, fol.frame, follow=True, gain=cfg.frame_gain)
-            if result is not None:
-                fol.misses = 0 if result.eyes_found else fol.misses + 1
-                if fol.misses > cfg.max_misses or result.score < cfg.min_score:
-                    result = None
-                elif not (UNIT_JUMP[0] < result.frame.unit / fol.unit_ref < UNIT_JUMP[1]):
-                    result = None                   # the frame shrank or grew far too fast: start afresh
-                else:
-                    fol.unit_ref += UNIT_GAIN * (result.frame.unit - fol.unit_ref)
+            fol.misses = 0 if result.eyes_found else fol.misses + 1
+            if not fol.still_the_face(result.frame, self._follower.correlation, cfg):
+                result = None
         if result is None:
-            # The frame the face was followed in until now (or until the likeness check dropped it) is a
-            # candidate too: after a blink or a turn the face is usually still there.
+            # The frame the face was followed in until now is a candidate too, and the search starts near it:
+            # after a blink, a turn or a hand passing the face is usually still there.
+            # The frame the face was followed in until now (or, for a while after it was lost, last followed in)
+            # is a candidate too: after a blink, a turn or a hand passing, the face is usually still there.
             result = self._acquire(rgb, last=fol.frame or fol.dropped)
-        fol.dropped = None
         if result is None:
+            if fol.frame is not None:
+                fol.dropped, fol.lost_for = fol.frame, 0
+            fol.lost_for += 1
+            if fol.lost_for > LOST_MEMORY:
+                fol.dropped = fol.score_ref = None
             fol.frame = self.seen = None
             return FrameFeatures.lost(len(CURVE_NAMES), len(POINT_NAMES))
+        fol.dropped = None
         curves, fol.frame, fol.correction, self.seen = result.curves, result.frame, result.correction, result.seen
         fol.tracked += 1
         if fol.tracked % cfg.check_every == 0:
-            self._check_score()
+            if not fol.still_like_a_face(self._template.score(*self._last_measured), cfg):
+                fol.frame, fol.dropped = None, fol.frame
         curves = self._smoother(curves, result.frame, timestamp_ms)
         return self._features(curves, (w, h), self._turn(timestamp_ms))
 
@@ -313,7 +311,8 @@ class ColorTracker:
         Returns
         -------
         Measurement or None
-            None when the crop shows no face (no skin on the cheeks and little likeness to a face).
+            None when, not following, the crop shows no face (no skin on the cheeks and little likeness to a face);
+            when following, never None (the tracker weighs the evidence, :meth:`~.follow.FollowState.still_the_face`).
         """
         px = self.config.measure.px
         place = self._place
@@ -326,7 +325,7 @@ class ColorTracker:
         crop = cv2.warpAffine(rgb, A, self._size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         if place.light is not None:
             crop = cv2.transform(crop, place.light)
-        skin = self._skin_ok(crop)
+        skin = self._follow.skin = self._skin_ok(crop)
         C = self.intensity(crop)
         eyes = self.eye_centres(C)
         # The eyes' correction of the followed frame (a similarity in crop pixels, as a, b, tx, ty), smoothed
@@ -347,9 +346,10 @@ class ColorTracker:
         place.shift = S_px[:, 2] + (S_px[:, :2] - _EYE2) @ place.anchor_mid
         self._last_measured = (C, S_px)
         boxes = self._boxes_now()
-        # How much the crop looks like a face: needed to pick among candidates and when the skin is not seen.
-        score = self._template.score(C, S_px) if (not follow or not skin) else 1.0
-        if not skin and score < self.config.acquire.min_skinless_score and not place.skinless_ok:
+        # How much the crop looks like a face: needed to pick among candidates (a followed face is judged by
+        # its match with its own reference crop instead).
+        score = 1.0 if follow else self._template.score(C, S_px)
+        if not follow and not skin and score < self.config.acquire.min_skinless_score and not place.skinless_ok:
             return None
         curves = None
         if outline:
@@ -432,9 +432,12 @@ class ColorTracker:
         return FrameFeatures(True, curves, np.full((3, 3), nan), np.full(3, nan), np.full((len(POINT_NAMES), 3), nan))
 
     def _skin_ok(self, crop: np.ndarray) -> bool:
-        """Whether the cheeks of the crop look like skin (the profile's skin model, over :data:`SKIN_CHEEKS` of
-        the pixels)."""
-        return skin_fraction(crop, self._cheek_boxes, self._skin_table) > SKIN_CHEEKS
+        """Whether the cheeks of the crop look like skin (over :data:`SKIN_CHEEKS` of the pixels) to the profile's
+        skin model or the generic one (a profile's model is one performer's skin in one light)."""
+        if skin_fraction(crop, self._cheek_boxes, self._skin_table) > SKIN_CHEEKS:
+            return True
+        generic = self._generic_skin
+        return generic is not None and skin_fraction(crop, self._cheek_boxes, generic) > SKIN_CHEEKS
 
     def _boxes_now(self) -> np.ndarray:
         """The feature rectangles (len(BOX_NAMES), 4) of this frame: moved with the layout's eyes (translation
@@ -442,21 +445,10 @@ class ColorTracker:
         return move_boxes(self._box_table, _SHIFTED, _MOUTH_BOX, self._place.shift, self._place.mouth_offset,
                           *self._size)
 
-    def _check_score(self) -> None:
-        """Now and then, how much the followed crop still looks like a face (smoothed); drop the frame if not.
-
-        Scored on the crop just measured, with the layout placed where the eyes put it.
-        """
-        fol = self._follow
-        score = self._template.score(*self._last_measured)
-        fol.score = score if fol.score is None else 0.5 * (fol.score + score)
-        if fol.score < self.config.follow.min_followed_score:
-            log.debug("face lost: the followed crop no longer looks like a face (score %.2f)", fol.score)
-            fol.frame, fol.dropped = None, fol.frame
-
     def _acquire(self, rgb: np.ndarray, last: FaceFrame | None = None) -> Measurement | None:
         """Find the face afresh (:meth:`~.acquire.Acquirer.find`), the filters and the alignment restarted."""
         fol = self._follow
+        self.searches += 1
         self._smoother.reset()
         fol.pose = fol.turn_ms = None
         self._place.mouth_offset = np.zeros(2)
@@ -466,8 +458,12 @@ class ColorTracker:
         best = self._acquirer.find(rgb, last)
         if best is None:
             return None
+        fol.found_again = last is not None
+        if last is not None and fol.score_ref is not None and same_frame(best.frame, last):
+            fol.score_ref = min(fol.score_ref, best.score)      # found where it was: that is how it looks now
         self._follower.start(rgb, best.frame)
         fol.unit_ref = best.frame.unit
+        fol.skin_found = self._skin_ok(best.seen[0])
         fol.score = None
         return best
 
