@@ -23,10 +23,12 @@ import numba as nb
 import numpy as np
 
 from facepuppet._util.jit import INNER, KERNEL
-from facepuppet.capture.curves import bernstein
+from facepuppet.capture.curves import CURVE_NAMES, bernstein
 
-__all__ = ["SnakeConfig", "SnakeSolver", "snake_fields", "snake_energy", "minimise_snakes", "box_guess", "UPPER",
-           "LOWER"]
+__all__ = ["SnakeConfig", "SnakeSolver", "snake_fields", "snake_energy", "minimise_snakes", "box_guess", "lip_field",
+           "UPPER", "LOWER"]
+
+_LIP_IDX = {n: i for i, n in enumerate(CURVE_NAMES) if n.startswith("lip_")}
 
 #: The feature lies below the curve (the curve is its upper boundary, curve A of Fig. 3).
 UPPER = 1.0
@@ -153,6 +155,49 @@ def _fields(img: np.ndarray, taps: np.ndarray) -> np.ndarray:
             mag[y, x] = out[y, x, 1] * out[y, x, 1] + out[y, x, 2] * out[y, x, 2]
     _central(mag, out, 3, 4)
     return out
+
+
+#: Samples per curve of the polygons :func:`lip_field` fills.
+LIP_POLYGON_SAMPLES = 16
+
+
+def lip_field(intensity: np.ndarray, curves: np.ndarray) -> np.ndarray:
+    """The feature intensity with the mouth opening painted at the lips' own level, for the outer lips' snakes.
+
+    An open mouth's inside (a dark opening bright in C, teeth and tongue dark in C) has edges of its own,
+    often stronger than the lips' edge against the skin, and the offset curves of Eq. 4 cannot tell a
+    skin-to-opening edge from a skin-to-lip one when the lip is pale. Inside the inner lips (the polygon
+    between ``lip_upper_inner`` and ``lip_lower_inner``) the intensity is set to the median over the lips
+    themselves (between the outer and the inner curves), so the only edge left near the outer curves is the
+    lips' outline (Fig. 3's curve A above, curve B below).
+
+    Parameters
+    ----------
+    intensity : (H, W) float32
+        C of the crop (or a part of it).
+    curves : (C, 4, 2) float
+        The rules' curves in the same pixels (:data:`~facepuppet.capture.curves.CURVE_NAMES` order).
+
+    Returns
+    -------
+    (H, W) float32
+        A copy of ``intensity``; unchanged where the inner lips enclose fewer than one pixel.
+    """
+    img = np.array(intensity, dtype=np.float32)
+    c = np.asarray(curves, dtype=float)
+    b = _Basis.get(LIP_POLYGON_SAMPLES)[0].astype(float)
+    ui, li, uo, lo = (b @ c[_LIP_IDX[n]] for n in ("lip_upper_inner", "lip_lower_inner", "lip_upper_outer",
+                                                   "lip_lower_outer"))
+    inner = np.zeros(img.shape, np.uint8)
+    cv2.fillPoly(inner, [np.round(np.concatenate([ui, li[::-1]])).astype(np.int32)], 1)
+    if not inner.any():
+        return img
+    outer = np.zeros(img.shape, np.uint8)
+    cv2.fillPoly(outer, [np.round(np.concatenate([uo, lo[::-1]])).astype(np.int32)], 1)
+    lips = (outer > 0) & (inner == 0)
+    if lips.any():
+        img[inner > 0] = np.median(img[lips])
+    return img
 
 
 def _sample(fields: np.ndarray, pts: np.ndarray) -> np.ndarray:

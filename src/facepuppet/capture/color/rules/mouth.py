@@ -31,11 +31,14 @@ LIP_HIGH = np.array([0.15, 0.8, 0.15, 0.8])
 MOUTH_NEAR = 0.3           # face units    radius around the layout's mouth centre where the lip blob is preferred
 BLOB_MIN_AREA = 3          # pixels        smallest blob that counts (:func:`~.blobs.blob_kernel`)
 MOUTH_MIN_COLUMNS = 4      # columns       fewest columns of the mouth blob for the lips to be read
-LIP_LEVEL_QUANTILE = 0.75  # quantile      the lips' brightness: this quantile of V over the lip blob
-DARK_FRACTION = 0.5        # fraction      pixels darker than this times the lips' or the skin's V are opening
+LIP_LEVEL_QUANTILE = 0.9   # quantile      the lips' brightness: this quantile of V over the lip blob
+DARK_FRACTION = 0.65       # fraction      pixels darker than this times the lips' or the skin's V are opening
 OPENING_OPEN = 3           # pixels        side of the opening (morphology) that clears specks off the opening
 OPENING_MIN_AREA = 0.004   # face units^2  smallest opening that counts as an open mouth
 OPENING_MIN_WIDTH = 0.1    # face units    narrowest opening that counts as an open mouth
+LIP_GAP = 0.1              # face units    gap in a column across which a lip part beyond the blob joins it
+LIP_EXTEND = 0.25          # face units    farthest a column's outer lip edge is moved out across such gaps
+OPEN_THICKNESS = 0.8       # fraction      of the layout's lip thickness an open mouth's lips keep at least
 
 
 @nb.njit(**INNER)
@@ -101,6 +104,57 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
     return otop, obot
 
 
+@nb.njit(**INNER)
+def _extend(sub: np.ndarray, level: float, cols: np.ndarray, top: np.ndarray, bottom: np.ndarray, gap: int,
+            most: int):
+    """The blob's column profile moved out across short gaps onto lip parts the blob left out.
+
+    A glossy lower lip's highlight or the upper teeth can cut a lip off the blob (the blob then ends at the
+    mouth opening): in each column, a run of pixels above ``level`` that starts within ``gap`` pixels beyond
+    the blob's top (bottom) moves the top (bottom) to the run's far end, at most ``most`` pixels out.
+    Returns the new (top, bottom), (W,) float32.
+    """
+    h, w = sub.shape
+    otop = top.copy()
+    obot = bottom.copy()
+    for x in range(w):
+        if not cols[x]:
+            continue
+        # Downwards from the blob's bottom.
+        y = int(bottom[x])
+        limit = min(int(bottom[x]) + most, h)
+        start = -1
+        for yy in range(y, min(y + gap, limit)):
+            if sub[yy, x] > level:
+                start = yy
+                break
+        if start >= 0:
+            yy = start
+            while yy < limit and sub[yy, x] > level:
+                yy += 1
+            obot[x] = yy
+        # Upwards from the blob's top.
+        y = int(top[x]) - 1
+        limit = max(int(top[x]) - most, 0)
+        start = -1
+        for yy in range(y, max(y - gap, limit - 1), -1):
+            if sub[yy, x] > level:
+                start = yy
+                break
+        if start >= 0:
+            yy = start
+            while yy >= limit and sub[yy, x] > level:
+                yy -= 1
+            otop[x] = yy + 1
+    return otop, obot
+
+
+@nb.njit(**INNER)
+def _mid_y(ctrl: np.ndarray) -> float:
+    """y of a curve's middle, B(1/2)."""
+    return 0.125 * (ctrl[0, 1] + ctrl[3, 1]) + 0.375 * (ctrl[1, 1] + ctrl[2, 1])
+
+
 @nb.njit(**KERNEL)
 def mouth_outlines(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset: np.ndarray, out: np.ndarray,
                    boxes: np.ndarray, params: np.ndarray, unit: float, reach: float) -> None:
@@ -145,10 +199,11 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset:
         out[c, 3, 1] = yr + (lay[c, 3, 1] - ly_r)
     skin = median_of_boxes(value, boxes[5:7])
     itop, ibot = _opening(mask, cols, top, bottom, value[y0:y1, x0:x1], skin, unit)
-    # Outer lips: the blob's outline; inner lips: the opening inside it (bounds: fraction of the unit).
+    etop, ebot = _extend(sub, params[1], cols, top, bottom, int(LIP_GAP * unit + 0.5), int(LIP_EXTEND * unit + 0.5))
+    # Outer lips: the blob's outline, moved out across gaps; inner lips: the opening inside it.
     profiles = np.empty((4, len(top)), np.float32)
     for x in range(len(top)):
-        profiles[0, x], profiles[1, x], profiles[2, x], profiles[3, x] = top[x], bottom[x], itop[x], ibot[x]
+        profiles[0, x], profiles[1, x], profiles[2, x], profiles[3, x] = etop[x], ebot[x], itop[x], ibot[x]
     for i in range(4):
         c = _LIPS[i]
         ok, y = sample_profile(out[c], cols, profiles[i] + y0, x0)
@@ -162,3 +217,16 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset:
         out[li, j, 1] = min(max(out[li, j, 1], out[ui, j, 1]), out[lo, j, 1])
         # The lower lip keeps at least the layout's thickness (a pale lower lip leaves the blob short of it).
         out[lo, j, 1] = max(out[lo, j, 1], out[li, j, 1] + lay[lo, j, 1] - lay[li, j, 1])
+    # An open mouth's lips keep most of their thickness: where the blob is the dark opening itself (lips
+    # paler than the opening in C), the outer lips lie beyond the inner ones by the lips, not on them.
+    gap = _mid_y(out[li]) - _mid_y(out[ui])
+    if gap > OPENING_MIN_WIDTH * unit:
+        tu = OPEN_THICKNESS * (_mid_y(lay[ui]) - _mid_y(lay[uo]))
+        tl = OPEN_THICKNESS * (_mid_y(lay[lo]) - _mid_y(lay[li]))
+        du = _mid_y(out[ui]) - tu - _mid_y(out[uo])
+        dl = _mid_y(out[li]) + tl - _mid_y(out[lo])
+        for j in (1, 2):
+            if du < 0:
+                out[uo, j, 1] += du / 0.75
+            if dl > 0:
+                out[lo, j, 1] += dl / 0.75
