@@ -14,7 +14,7 @@ import numpy as np
 
 from facepuppet._util.jit import INNER, KERNEL
 from facepuppet.capture.color.blobs import blob_kernel, label8, open_mask
-from facepuppet.capture.color.rules.kernels import median_of_boxes, mid_shift, quantile, sample_profile
+from facepuppet.capture.color.rules.kernels import median, median_of_boxes, mid_shift, quantile, sample_profile
 from facepuppet.capture.curves import CURVE_NAMES
 
 __all__ = ["mouth_outlines"]
@@ -36,6 +36,7 @@ DARK_FRACTION = 0.65       # fraction      pixels darker than this times the lip
 OPENING_OPEN = 3           # pixels        side of the opening (morphology) that clears specks off the opening
 OPENING_MIN_AREA = 0.004   # face units^2  smallest opening that counts as an open mouth
 OPENING_MIN_WIDTH = 0.1    # face units    narrowest opening that counts as an open mouth
+MOUTH_FOLLOW = 0.3         # face units    farthest the layout's lips follow the blob's upper edge up or down
 LIP_GAP = 0.1              # face units    gap in a column across which a lip part beyond the blob joins it
 LIP_EXTEND = 0.25          # face units    farthest a column's outer lip edge is moved out across such gaps
 OPEN_THICKNESS = 0.8       # fraction      of the layout's lip thickness an open mouth's lips keep at least
@@ -181,14 +182,31 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset:
     xs = np.nonzero(cols)[0]
     if len(xs) < MOUTH_MIN_COLUMNS:
         return
+    # The mouth's height on the face differs between people: the bounds of the upper lips and the corners
+    # follow the blob's upper edge (the upper lip moves least with the expressions) at the layout's middle
+    # columns, within MOUTH_FOLLOW.
+    xc = int(0.5 * (lay[uo, 0, 0] + lay[uo, 3, 0])) - x0
+    half = max(int(0.1 * unit), 1)
+    n_top = 0
+    tops = np.empty(2 * half + 1)
+    for x in range(max(xc - half, 0), min(xc + half + 1, len(cols))):
+        if cols[x]:
+            tops[n_top] = top[x] + y0
+            n_top += 1
+    dy = 0.0
+    if n_top:
+        dy = min(max(median(tops[:n_top]) - _mid_y(lay[uo]), -MOUTH_FOLLOW * unit), MOUTH_FOLLOW * unit)
     lx_l, lx_r = lay[uo, 0, 0], lay[uo, 3, 0]
     ly_l, ly_r = lay[uo, 0, 1], lay[uo, 3, 1]
     b = reach * unit
-    xl = min(max(xs[0] + x0, lx_l - b), lx_l + b)
-    xr = min(max(xs[-1] + 1 + x0, lx_r - b), lx_r + b)
+    # Sideways too (the mouth slides across the face frame when the head turns): the corners' bounds follow
+    # the blob's middle.
+    dx = min(max(0.5 * (xs[0] + xs[-1] + 1) + x0 - 0.5 * (lx_l + lx_r), -MOUTH_FOLLOW * unit), MOUTH_FOLLOW * unit)
+    xl = min(max(xs[0] + x0, lx_l + dx - b), lx_l + dx + b)
+    xr = min(max(xs[-1] + 1 + x0, lx_r + dx - b), lx_r + dx + b)
     mid = (top + bottom) / 2.0 + y0
-    yl = min(max(mid[xs[0]:xs[0] + 3].mean(), ly_l - b), ly_l + b)
-    yr = min(max(mid[max(xs[-1] - 2, 0):xs[-1] + 1].mean(), ly_r - b), ly_r + b)
+    yl = min(max(mid[xs[0]:xs[0] + 3].mean(), ly_l + dy - b), ly_l + dy + b)
+    yr = min(max(mid[max(xs[-1] - 2, 0):xs[-1] + 1].mean(), ly_r + dy - b), ly_r + dy + b)
     for c in _LIPS:
         l0, l1 = lay[c, 0, 0], lay[c, 3, 0]
         # Each curve keeps its end offsets from the outer corners (inner lip ends lie inside the mouth).
@@ -209,8 +227,9 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset:
         ok, y = sample_profile(out[c], cols, profiles[i] + y0, x0)
         if ok:
             d = mid_shift(out[c], y)
+            centre = dy if c == uo or c == ui else 0.0
             for j in (1, 2):
-                lo_b, hi_b = lay[c, j, 1] + LIP_LOW[i] * unit, lay[c, j, 1] + LIP_HIGH[i] * unit
+                lo_b, hi_b = lay[c, j, 1] + centre + LIP_LOW[i] * unit, lay[c, j, 1] + centre + LIP_HIGH[i] * unit
                 out[c, j, 1] = min(max(out[c, j, 1] + d, lo_b), hi_b)
     for j in (1, 2):
         out[ui, j, 1] = min(max(out[ui, j, 1], out[uo, j, 1]), out[lo, j, 1])
