@@ -271,7 +271,7 @@ class ColorTracker:
         crop = np.zeros((h, w, 3), np.uint8)
         curves = np.ascontiguousarray(self._layout_px, dtype=np.float64)
         if part == "snakes":
-            self._snakes(curves[_SNAKE_IDX], snake_fields(np.zeros((h, w), np.float32), SNAKE_BLUR))
+            self._snakes(curves[_SNAKE_IDX], snake_fields(lip_field(np.zeros((h, w), np.float32), curves), SNAKE_BLUR))
             return
         C = self.intensity(crop)
         self.eye_centres(C)

@@ -32,11 +32,12 @@ MOUTH_NEAR = 0.3           # face units    radius around the layout's mouth cent
 BLOB_MIN_AREA = 3          # pixels        smallest blob that counts (:func:`~.blobs.blob_kernel`)
 MOUTH_MIN_COLUMNS = 4      # columns       fewest columns of the mouth blob for the lips to be read
 LIP_LEVEL_QUANTILE = 0.9   # quantile      the lips' brightness: this quantile of V over the lip blob
+LIP_LEVEL_FLOOR = 0.6      # fraction      least lips' brightness, as a share of the skin's V
 DARK_FRACTION = 0.65       # fraction      pixels darker than this times the lips' or the skin's V are opening
 OPENING_OPEN = 3           # pixels        side of the opening (morphology) that clears specks off the opening
 OPENING_MIN_AREA = 0.004   # face units^2  smallest opening that counts as an open mouth
 OPENING_MIN_WIDTH = 0.1    # face units    narrowest opening that counts as an open mouth
-MOUTH_FOLLOW = 0.3         # face units    farthest the layout's lips follow the blob's upper edge up or down
+MOUTH_FOLLOW = 0.3         # face units    farthest the lips' and corners' bounds follow the blob (up, down, sideways)
 LIP_GAP = 0.1              # face units    gap in a column across which a lip part beyond the blob joins it
 LIP_EXTEND = 0.25          # face units    farthest a column's outer lip edge is moved out across such gaps
 OPEN_THICKNESS = 0.8       # fraction      of the layout's lip thickness an open mouth's lips keep at least
@@ -48,8 +49,8 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
     """Top and bottom of the mouth opening per column of the mouth rectangle (the lip crease if closed).
 
     ``value`` is the HSV value V (0..255) of the rectangle, ``skin`` the cheeks' median V. The opening is
-    dark (below half the lips' and the skin's brightness) or left out of the lip blob between its top and
-    bottom; its largest 8-connected part counts if it is big and wide enough.
+    dark (below :data:`DARK_FRACTION` of the lips' brightness, or of the skin's if lower) or left out of the
+    lip blob between its top and bottom; its largest 8-connected part counts if it is big and wide enough.
     """
     h, w = mask.shape
     lips = np.empty(h * w)
@@ -60,7 +61,9 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
                 lips[n] = value[y, x]
                 n += 1
     level = quantile(lips[:n], LIP_LEVEL_QUANTILE) if n else skin
-    thr = DARK_FRACTION * min(level, skin)
+    # A blob that is all opening (pale lips) has the opening's own level: the lips are taken to be at least
+    # LIP_LEVEL_FLOOR of the skin's brightness.
+    thr = DARK_FRACTION * min(max(level, LIP_LEVEL_FLOOR * skin), skin)
     opening = np.zeros((h, w), np.uint8)
     crease = np.empty(w, np.float32)
     for x in range(w):
