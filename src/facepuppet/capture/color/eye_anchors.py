@@ -43,6 +43,7 @@ OPENING = {
     "luma": (0.3, "skin luma", "least luma of an opening pixel (lashes, eyeliner and pupil are darker)"),
     "tail": (0.03, "share", "share of the opening's pixels left out at each end of its extent"),
     "least": (0.015, "face units^2", "least area of opening pixels for the extent to be read"),
+    "full": (0.03, "face units^2", "area of opening pixels from which the extent alone places the eye"),
     "outset": (0.0, "face units", "how far outward of the corners' midpoint the extent's midpoint lies"),
     "steps": (2, "steps", "times the window is re-centred on the extent's midpoint"),
     "above": (0.06, "face units", "the window's reach above the height found (the lash line's)"),
@@ -112,7 +113,7 @@ def calibrated_anchors(anchors: np.ndarray, found: np.ndarray, unit: float, *,
     return anchors + gain * (anchors @ T[:, :2].T + T[:, 2] - anchors)
 
 
-_OPENING_ORDER = ("chroma", "luma", "tail", "least", "outset", "steps", "above", "below", "local", "lift",
+_OPENING_ORDER = ("chroma", "luma", "tail", "least", "full", "outset", "steps", "above", "below", "local", "lift",
                   "half_width", "wider")
 
 
@@ -222,7 +223,8 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
     beyond its outer corner (pale makeup or skin, the background by a turned head), and its outer end is cut
     back to that width. The centre is the extent's midpoint moved inward by ``outset`` face units. An eye
     whose opening covers less than ``least`` face units² (closed, or in deep shadow) keeps the position of
-    :func:`eye_centres`. The names are those of :data:`OPENING`, in ``table`` in :data:`OPENING_TABLE`'s order.
+    :func:`eye_centres`; from ``least`` to ``full`` the position goes over linearly from that to the opening's.
+    The names are those of :data:`OPENING`, in ``table`` in :data:`OPENING_TABLE`'s order.
 
     ``C``: (H, W) float32 contrast C; ``crop``: (H, W, 3) uint8 RGB face crop; ``cheeks``: (K, 4) int64 skin
     rectangles x0, y0, x1, y1; ``anchors``: (>= 2, 2) expected centres, right eye (image left) first;
@@ -240,12 +242,15 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
         return ok, out                      # no skin chroma to tell the opening from
     chroma_max, luma_min = table[0] * s2, table[1] * skin[0]
     least = table[3] * unit * unit
-    r_box = max(int(np.round(table[8] * unit)), 1)
-    # Luma and its integral image (for the local means), and the chroma projected on the skin's.
+    r_box = max(int(np.round(table[9] * unit)), 1)
+    # Luma and its integral image (for the local means), and the chroma projected on the skin's, in the band
+    # of rows the two windows and their boxes cover.
+    bt = max(int(np.round(min(out[0, 1], out[1, 1]) - table[7] * unit)) - r_box, 0)
+    bb = min(int(np.round(max(out[0, 1], out[1, 1]) + table[8] * unit)) + 1 + r_box, h)
     luma = np.empty((h, w))
     proj = np.empty((h, w))
     integral = np.zeros((h + 1, w + 1))
-    for y in range(h):
+    for y in range(bt, bb):
         row = 0.0
         for x in range(w):
             r, g, bl = float(crop[y, x, 0]), float(crop[y, x, 1]), float(crop[y, x, 2])
@@ -254,16 +259,17 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
             proj[y, x] = 0.713 * (r - v) * skin[1] + 0.564 * (bl - v) * skin[2]
             row += v
             integral[y + 1, x + 1] = integral[y, x + 1] + row
-    half = max(int(np.round(table[10] * unit)), 1)
+    half = max(int(np.round(table[11] * unit)), 1)
     cols = np.zeros(2 * half + 1)
     ends = np.zeros((2, 2))                 # each eye's opening: inner and outer end, crop pixels
     seen = np.zeros(2, np.bool_)
+    area = np.zeros(2)                      # opening pixels of each eye in the last window read
     for k in range(2):
         cx, cy = anchors[k, 0], out[k, 1]
         out_dir = -1.0 if k == 0 else 1.0   # outward along x: the right eye is at the image's left
-        y0 = max(int(np.round(cy - table[6] * unit)), 0)
-        y1 = min(int(np.round(cy + table[7] * unit)) + 1, h)
-        for _ in range(int(table[5])):
+        y0 = max(int(np.round(cy - table[7] * unit)), 0)
+        y1 = min(int(np.round(cy + table[8] * unit)) + 1, h)
+        for _ in range(int(table[6])):
             x0 = int(np.round(cx)) - half
             cols[:] = 0.0
             n = 0.0
@@ -273,10 +279,10 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
                     v = luma[y, x]
                     if proj[y, x] >= chroma_max or v <= luma_min:
                         continue
-                    ya, yb = max(y - r_box, 0), min(y + r_box + 1, h)
+                    ya, yb = max(y - r_box, bt), min(y + r_box + 1, bb)
                     local = (integral[yb, xb] - integral[ya, xb] - integral[yb, xa] + integral[ya, xa]) / (
                         (yb - ya) * (xb - xa))
-                    if v >= table[9] * local:
+                    if v >= table[10] * local:
                         cols[x - x0] += 1.0
                         n += 1.0
             if n < least:
@@ -294,8 +300,9 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
                 run = nxt
             a, b = x0 + a - 0.5, x0 + b - 0.5
             ends[k, 0], ends[k, 1] = (b, a) if k == 0 else (a, b)
-            cx = 0.5 * (a + b) - out_dir * table[4] * unit
+            cx = 0.5 * (a + b) - out_dir * table[5] * unit
             seen[k] = True
+            area[k] = n
     # The two eyes are the same size: an opening much wider than the other's has taken in something beyond
     # its outer corner (pale makeup or skin, a reflection); it is cut to the most the other allows.
     width = np.abs(ends[:, 1] - ends[:, 0])
@@ -304,7 +311,10 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
             continue
         wk = width[k]
         if seen[1 - k]:
-            wk = min(wk, table[11] * width[1 - k])
+            wk = min(wk, table[12] * width[1 - k])
         out_dir = -1.0 if k == 0 else 1.0
-        out[k, 0] = ends[k, 0] + out_dir * 0.5 * wk - out_dir * table[4] * unit
+        x = ends[k, 0] + out_dir * 0.5 * wk - out_dir * table[5] * unit
+        # Between least and full area the place goes over smoothly from the mean shift's to the opening's.
+        share = min(max((area[k] - least) / max(table[4] * unit * unit - least, 1e-9), 0.0), 1.0)
+        out[k, 0] = share * x + (1.0 - share) * out[k, 0]
     return ok, out
