@@ -51,6 +51,7 @@ OPENING = {
     "local": (0.05, "face units", "half size of the box whose mean luma an opening pixel must exceed"),
     "lift": (1.0, "local luma", "how far an opening pixel's luma must exceed its box's mean (a share of it)"),
     "half_width": (0.3, "face units", "half width of the window the opening is looked for in"),
+    "agree": (0.1, "face units", "farthest the opening's place may lie from the mean shift's (on the eye's blob)"),
     "wider": (1.15, "ratio", "most one eye's opening may be wider than the other's (cut at its outer end)"),
 }
 
@@ -114,7 +115,7 @@ def calibrated_anchors(anchors: np.ndarray, found: np.ndarray, unit: float, *,
 
 
 _OPENING_ORDER = ("chroma", "luma", "tail", "least", "full", "outset", "steps", "above", "below", "local", "lift",
-                  "half_width", "wider")
+                  "half_width", "wider", "agree")
 
 
 def _opening_table() -> np.ndarray:
@@ -223,7 +224,9 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
     beyond its outer corner (pale makeup or skin, the background by a turned head), and its outer end is cut
     back to that width. The centre is the extent's midpoint moved inward by ``outset`` face units. An eye
     whose opening covers less than ``least`` face units² (closed, or in deep shadow) keeps the position of
-    :func:`eye_centres`; from ``least`` to ``full`` the position goes over linearly from that to the opening's.
+    :func:`eye_centres`; from ``least`` to ``full`` the position goes over linearly from that to the opening's,
+    which is kept within ``agree`` of that of :func:`eye_centres` (the mean shift holds to the dark eye; a window
+    off the eye may see pale skin, hair or the background beside it).
     The names are those of :data:`OPENING`, in ``table`` in :data:`OPENING_TABLE`'s order.
 
     ``C``: (H, W) float32 contrast C; ``crop``: (H, W, 3) uint8 RGB face crop; ``cheeks``: (K, 4) int64 skin
@@ -316,5 +319,9 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
         x = ends[k, 0] + out_dir * 0.5 * wk - out_dir * table[5] * unit
         # Between least and full area the place goes over smoothly from the mean shift's to the opening's.
         share = min(max((area[k] - least) / max(table[4] * unit * unit - least, 1e-9), 0.0), 1.0)
+        # The opening lies on the eye's blob: its place at most ``agree`` from the mean shift's, which holds
+        # to the dark eye (a window outside the eye may see pale skin, hair or the background).
+        agree = table[13] * unit
+        x = min(max(x, out[k, 0] - agree), out[k, 0] + agree)
         out[k, 0] = share * x + (1.0 - share) * out[k, 0]
     return ok, out
