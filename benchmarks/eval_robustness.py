@@ -6,7 +6,9 @@ such footage from the shared clips and measures it with the shared yardstick:
 - ``dim``: every channel times 0.35 (an underexposed room);
 - ``warm``: red times 1.3, green 0.95, blue 0.65 (tungsten light on an uncorrected camera);
 - ``noisy``: Gaussian noise of standard deviation 12 grey levels per channel (a cheap sensor in low light);
-- ``small``: the frame shrunk to 2/5 and set on a grey (90) frame of the original size (a face far away).
+- ``small``: the frame shrunk to 2/5 and set on a grey (90) frame of the original size (a face far away);
+- ``face80``: the frame shrunk so that the face is 80 px wide (:data:`FACE_WIDTH` eye-centre distances, the
+  distance MediaPipe finds on the clip's first frames) and set on a grey frame the same way.
 
 Background copies: the face (an oval around MediaPipe's eyes on the original frame, feathered) cut out and set on
 a made-up scene, the kind of room that fools a skin-colour model:
@@ -24,8 +26,8 @@ profile (no landmark model: the copies test the colour pipeline alone), and scor
 The bars of the shared clips are NME <= 0.05, jitter ratio <= 1.5, coverage >= 0.98.
 
 Run: ``python benchmarks/eval_robustness.py [--clips performer_a performer_c] [--variants dim warm noisy small
-wood beige skin_object poster stage_hand] [--assets PATH] [--jobs 2]`` (about a minute per copy on one core,
-MediaPipe's reference included).
+face80 wood beige skin_object poster stage_hand] [--assets PATH] [--jobs 2]`` (about a minute per copy on one
+core, MediaPipe's reference included).
 """
 
 from __future__ import annotations
@@ -42,15 +44,56 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-VARIANTS = ("dim", "warm", "noisy", "small")
+VARIANTS = ("dim", "warm", "noisy", "small", "face80")
 BACKGROUNDS = ("wood", "beige", "skin_object", "poster", "stage_hand")
 #: The face cut out: an oval centred this far below the eyes, with these half-axes (eye-centre distances).
 FACE_OVAL = (0.8, 1.2, 1.75)
 STAGE_SCALE = 0.42          # the stage copy's frame scale (a face about 90-115 px wide)
+#: A face's width in eye-centre distances (bizygomatic breadth over the distance of the pupils, adults).
+FACE_WIDTH = 2.2
+#: The face80 copy's face width, pixels.
+SMALL_FACE = 80.0
 
 
-def altered(rgb: np.ndarray, variant: str, rng: np.random.Generator) -> np.ndarray:
-    """One RGB frame (H, W, 3) uint8 as the ``variant`` copy shows it (module docstring)."""
+def _shrunk(rgb: np.ndarray, f: float) -> np.ndarray:
+    """The frame shrunk by ``f`` and set on a grey (90) frame of the original size, a third down, a quarter in."""
+    import cv2
+
+    h, w = rgb.shape[:2]
+    s = cv2.resize(rgb, (max(round(w * f), 1), max(round(h * f), 1)), interpolation=cv2.INTER_AREA)
+    out = np.full_like(rgb, 90)
+    out[h // 3:h // 3 + s.shape[0], w // 4:w // 4 + s.shape[1]] = s[:h - h // 3, :w - w // 4]
+    return out
+
+
+def face_unit(src: Path, model: Path, frames: int = 10) -> float:
+    """The median eye-centre distance (pixels) MediaPipe (model file ``model``) finds on the first ``frames`` of
+    ``src``."""
+    import cv2
+
+    from facepuppet.capture.color.eye_anchors import eye_centres_of
+    from facepuppet.capture.tracking import make_tracker
+
+    cap = cv2.VideoCapture(str(src))
+    tracker, units = make_tracker("mediapipe", model_path=model, running_mode="image"), []
+    for i in range(frames):
+        ok, bgr = cap.read()
+        if not ok:
+            break
+        f = tracker.track(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), 33 * i)
+        if f.valid:
+            right, left = eye_centres_of(f.curves)
+            units.append(float(np.hypot(*(left - right))))
+    cap.release()
+    tracker.close()
+    if not units:
+        raise RuntimeError(f"{src}: no face in the first {frames} frames")
+    return float(np.median(units))
+
+
+def altered(rgb: np.ndarray, variant: str, rng: np.random.Generator, unit: float | None = None) -> np.ndarray:
+    """One RGB frame (H, W, 3) uint8 as the ``variant`` copy shows it (module docstring); ``unit``: the clip's
+    eye-centre distance in pixels (``face80`` only)."""
     import cv2
 
     x = rgb.astype(np.float32)
@@ -66,6 +109,10 @@ def altered(rgb: np.ndarray, variant: str, rng: np.random.Generator) -> np.ndarr
         out = np.full_like(rgb, 90)
         out[h // 3:h // 3 + s.shape[0], w // 4:w // 4 + s.shape[1]] = s
         return out
+    elif variant == "face80":
+        if unit is None:
+            raise ValueError("the face80 copy needs the clip's eye-centre distance (unit)")
+        return _shrunk(rgb, min(SMALL_FACE / (FACE_WIDTH * unit), 1.0))
     else:
         raise ValueError(f"unknown variant {variant!r}; choose from {', '.join(VARIANTS)}")
     return np.clip(x + 0.5, 0, 255).astype(np.uint8)
@@ -182,12 +229,13 @@ def composited(src: Path, variant: str, model: str):
 
 def write_copy(src: Path, variant: str, out: Path, model: str | None = None) -> None:
     """Write the ``variant`` copy of the video ``src`` to ``out`` (MPEG-4, same size and rate); the background
-    copies need MediaPipe's ``model``."""
+    copies and ``face80`` need MediaPipe's ``model`` file."""
     import cv2
 
     cap = cv2.VideoCapture(str(src))
     fps = cap.get(cv2.CAP_PROP_FPS) or 30.0
     rng = np.random.default_rng(0)
+    unit = face_unit(src, model) if variant == "face80" else None
     writer = None
     scenes = composited(src, variant, model) if variant in BACKGROUNDS else None
     while True:
@@ -199,7 +247,7 @@ def write_copy(src: Path, variant: str, out: Path, model: str | None = None) -> 
             if rgb is None:
                 break
         else:
-            rgb = altered(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), variant, rng)
+            rgb = altered(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), variant, rng, unit)
         if writer is None:
             writer = cv2.VideoWriter(str(out), cv2.VideoWriter_fourcc(*"mp4v"), fps, rgb.shape[1::-1])
         writer.write(cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))

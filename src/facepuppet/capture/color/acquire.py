@@ -21,7 +21,6 @@ from facepuppet.capture.color.config import ColorTrackerConfig
 from facepuppet.capture.color.detect import face_boxes, frames_of_boxes, inside_box, search_area
 from facepuppet.capture.color.eye_anchors import (
     calibrated_anchors,
-    eye_centres,
     eye_centres_of,
     landmark_curves,
     shared_landmarker,
@@ -132,6 +131,8 @@ class Measurer(Protocol):
     def intensity_last(self) -> np.ndarray | None: ...
 
     def intensity(self, crop: np.ndarray) -> np.ndarray: ...
+
+    def eye_centres(self, C: np.ndarray, anchors: np.ndarray | None = None) -> np.ndarray | None: ...
 
     def measure(self, rgb: np.ndarray, frame: FaceFrame, *, follow: bool, gain: float, outline: bool = True,
                 correction: np.ndarray | None = None) -> Measurement | None: ...
@@ -287,8 +288,8 @@ class Acquirer:
         old = self.place.anchors_px
         eyes = old[:2]
         for _ in range(ANCHOR_STEPS):
-            ok, nxt = eye_centres(C, eyes, *self.eye_window)
-            if not ok:
+            nxt = self.tracker.eye_centres(C, eyes)
+            if nxt is None:
                 return None
             eyes, step = nxt, np.abs(nxt - eyes).max()
             if step < ANCHOR_TOLERANCE:

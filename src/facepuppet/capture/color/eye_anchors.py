@@ -1,9 +1,11 @@
-"""The colour tracker's eye anchors calibrated on the landmark backend's eyes, and that backend shared.
+"""The colour tracker's eye search, its eye anchors calibrated on the landmark backend's eyes, and that backend
+shared.
 
-The colour tracker aligns its face frame on the eye blobs: the centres it finds by mean shift of the feature
-intensity (:func:`eye_centres`) are mapped onto the profile's eye anchors, and the
-layout follows. Where a blob's centre sits relative to the eye itself depends on the performer (lashes, lid
-shadows, brows close above): the generic anchors may put the layout a little off, too high or too wide. When
+The colour tracker aligns its face frame on the eyes: the centres it finds (:func:`eye_opening_centres`: the
+height by mean shift of the feature intensity, :func:`eye_centres`; the place along the eye the midpoint of the
+eye's opening, which dark makeup, shadows and the gaze do not move) are mapped onto the profile's eye anchors,
+and the layout follows. Where the height found sits relative to the eye itself depends on the performer
+(lashes, lid shadows, brows close above): the generic anchors may put the layout a little off. When
 the landmark backend (MediaPipe) is available, the tracker asks it once, at its first acquisition, where the
 eyes are, and moves its anchors so the layout's eye centres land on them (:func:`calibrated_anchors`).
 
@@ -26,14 +28,32 @@ from facepuppet.capture.color.lids import EYES
 from facepuppet.capture.curves import bezier_points
 from facepuppet.errors import FacepuppetError
 
-__all__ = ["EYE_STEPS", "EYE_LEAST", "eye_centres", "eye_centres_of", "calibrated_anchors", "shared_landmarker",
-           "landmark_curves"]
+__all__ = ["EYE_STEPS", "EYE_LEAST", "OPENING", "OPENING_TABLE", "eye_centres", "eye_opening_centres", "eye_centres_of",
+           "calibrated_anchors", "shared_landmarker", "landmark_curves"]
 
 log = logging.getLogger(__name__)
 
 # Tuning constants of the eye search (eye_centres)
 EYE_STEPS = 3        # steps   mean-shift steps of the search from the anchors
 EYE_LEAST = 0.01     # C^2     least mean of C^2 over a window for it to hold an eye
+
+#: The eye opening's extent (eye_opening_centres): name -> (value, unit, meaning).
+OPENING = {
+    "chroma": (0.6, "skin chroma", "most chroma along the skin's (Cr, Cb) direction of an opening pixel"),
+    "luma": (0.3, "skin luma", "least luma of an opening pixel (lashes, eyeliner and pupil are darker)"),
+    "tail": (0.03, "share", "share of the opening's pixels left out at each end of its extent"),
+    "least": (0.015, "face units^2", "least area of opening pixels for the extent to be read"),
+    "full": (0.03, "face units^2", "area of opening pixels from which the extent alone places the eye"),
+    "outset": (0.0, "face units", "how far outward of the corners' midpoint the extent's midpoint lies"),
+    "steps": (2, "steps", "times the window is re-centred on the extent's midpoint"),
+    "above": (0.06, "face units", "the window's reach above the height found (the lash line's)"),
+    "below": (0.14, "face units", "the window's reach below the height found"),
+    "local": (0.05, "face units", "half size of the box whose mean luma an opening pixel must exceed"),
+    "lift": (1.0, "local luma", "how far an opening pixel's luma must exceed its box's mean (a share of it)"),
+    "half_width": (0.3, "face units", "half width of the window the opening is looked for in"),
+    "agree": (0.1, "face units", "farthest the opening's place may lie from the mean shift's (on the eye's blob)"),
+    "wider": (1.15, "ratio", "most one eye's opening may be wider than the other's (cut at its outer end)"),
+}
 
 #: Landmark backends (image mode) by model path and options, made on first need and kept for the process:
 #: loading the model costs far more than a tracker's whole acquisition. None: not available.
@@ -94,6 +114,18 @@ def calibrated_anchors(anchors: np.ndarray, found: np.ndarray, unit: float, *,
     return anchors + gain * (anchors @ T[:, :2].T + T[:, 2] - anchors)
 
 
+_OPENING_ORDER = ("chroma", "luma", "tail", "least", "full", "outset", "steps", "above", "below", "local", "lift",
+                  "half_width", "wider", "agree")
+
+
+def _opening_table() -> np.ndarray:
+    """The values of :data:`OPENING` as float64, the form the kernel takes."""
+    return np.array([OPENING[k][0] for k in _OPENING_ORDER], dtype=np.float64)
+
+
+OPENING_TABLE = _opening_table()
+
+
 def shared_landmarker(model_path: str | os.PathLike | None, config=None):
     """The process's landmark backend (a MediaPipeTracker in image mode) for this model and options, or None
     when mediapipe or the model is missing. Made on first call; never closed by its users (at exit)."""
@@ -149,3 +181,147 @@ def eye_centres(C: np.ndarray, anchors: np.ndarray, half_w: int, half_h: int):
             cx, cy = sx / total + xa, sy / total + ya
         out[k, 0], out[k, 1] = cx, cy
     return True, out
+
+
+@nb.njit(**KERNEL)
+def _skin_reference(crop: np.ndarray, cheeks: np.ndarray) -> np.ndarray:
+    """(Y, Cr - 128, Cb - 128) medians over the cheek rectangles ``cheeks`` (K, 4) of the crop (H, W, 3) uint8."""
+    n = 0
+    for b in range(cheeks.shape[0]):
+        n += max(cheeks[b, 2] - cheeks[b, 0], 0) * max(cheeks[b, 3] - cheeks[b, 1], 0)
+    vals = np.empty((3, max(n, 1)))
+    i = 0
+    for b in range(cheeks.shape[0]):
+        for y in range(max(cheeks[b, 1], 0), min(cheeks[b, 3], crop.shape[0])):
+            for x in range(max(cheeks[b, 0], 0), min(cheeks[b, 2], crop.shape[1])):
+                r, g, bl = float(crop[y, x, 0]), float(crop[y, x, 1]), float(crop[y, x, 2])
+                luma = 0.299 * r + 0.587 * g + 0.114 * bl
+                vals[0, i], vals[1, i], vals[2, i] = luma, 0.713 * (r - luma), 0.564 * (bl - luma)
+                i += 1
+    out = np.zeros(3)
+    if i > 0:
+        for c in range(3):
+            out[c] = np.median(vals[c, :i])
+    return out
+
+
+@nb.njit(**KERNEL)
+def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anchors: np.ndarray, half_w: int,
+                        half_h: int, unit: float, table: np.ndarray):
+    """Eye centres (2, 2) in crop pixels: the height from :func:`eye_centres`, the position along the eye the
+    midpoint of the extent of the eye's opening, which is the midpoint of its corners.
+
+    The opening (white of the eye, a light iris) is told from skin by its colour and from lashes, eyeliner,
+    pupil and shadow by its light: a pixel belongs to it when its chroma along the cheeks' (Cr, Cb) direction
+    is under ``chroma`` of the cheeks', its luma over ``luma`` of the cheeks' and at least ``lift`` times the
+    mean luma of the box of half size ``local`` around it (the white of a shadowed eye is still lighter than
+    the lashes and iris beside it; the blurred rim of a dark area is not). Dark makeup beyond the corners (an
+    eyeliner's wing) and where the iris sits (the gaze) do not move the extent, as they move a mean of the
+    feature intensity. In a window ``half_width`` face units either side of the expected centre, from
+    ``above`` over to ``below`` under the height found, the extent runs between the columns that leave out
+    ``tail`` of the opening's pixels at either end; the window is re-centred on its midpoint ``steps`` times.
+    The two eyes are the same size: an opening wider than ``wider`` times the other's has taken in something
+    beyond its outer corner (pale makeup or skin, the background by a turned head), and its outer end is cut
+    back to that width. The centre is the extent's midpoint moved inward by ``outset`` face units. An eye
+    whose opening covers less than ``least`` face units² (closed, or in deep shadow) keeps the position of
+    :func:`eye_centres`; from ``least`` to ``full`` the position goes over linearly from that to the opening's,
+    which is kept within ``agree`` of that of :func:`eye_centres` (the mean shift holds to the dark eye; a window
+    off the eye may see pale skin, hair or the background beside it).
+    The names are those of :data:`OPENING`, in ``table`` in :data:`OPENING_TABLE`'s order.
+
+    ``C``: (H, W) float32 contrast C; ``crop``: (H, W, 3) uint8 RGB face crop; ``cheeks``: (K, 4) int64 skin
+    rectangles x0, y0, x1, y1; ``anchors``: (>= 2, 2) expected centres, right eye (image left) first;
+    ``half_w``, ``half_h``: :func:`eye_centres`' window; ``unit``: crop pixels per face unit.
+
+    Returns (ok, centres): ok as :func:`eye_centres`'.
+    """
+    ok, out = eye_centres(C, anchors, half_w, half_h)
+    if not ok:
+        return ok, out
+    h, w = C.shape
+    skin = _skin_reference(crop, cheeks)
+    s2 = skin[1] * skin[1] + skin[2] * skin[2]
+    if s2 < 1.0:
+        return ok, out                      # no skin chroma to tell the opening from
+    chroma_max, luma_min = table[0] * s2, table[1] * skin[0]
+    least = table[3] * unit * unit
+    r_box = max(int(np.round(table[9] * unit)), 1)
+    # Luma and its integral image (for the local means), and the chroma projected on the skin's, in the band
+    # of rows the two windows and their boxes cover.
+    bt = max(int(np.round(min(out[0, 1], out[1, 1]) - table[7] * unit)) - r_box, 0)
+    bb = min(int(np.round(max(out[0, 1], out[1, 1]) + table[8] * unit)) + 1 + r_box, h)
+    luma = np.empty((h, w))
+    proj = np.empty((h, w))
+    integral = np.zeros((h + 1, w + 1))
+    for y in range(bt, bb):
+        row = 0.0
+        for x in range(w):
+            r, g, bl = float(crop[y, x, 0]), float(crop[y, x, 1]), float(crop[y, x, 2])
+            v = 0.299 * r + 0.587 * g + 0.114 * bl
+            luma[y, x] = v
+            proj[y, x] = 0.713 * (r - v) * skin[1] + 0.564 * (bl - v) * skin[2]
+            row += v
+            integral[y + 1, x + 1] = integral[y, x + 1] + row
+    half = max(int(np.round(table[11] * unit)), 1)
+    cols = np.zeros(2 * half + 1)
+    ends = np.zeros((2, 2))                 # each eye's opening: inner and outer end, crop pixels
+    seen = np.zeros(2, np.bool_)
+    area = np.zeros(2)                      # opening pixels of each eye in the last window read
+    for k in range(2):
+        cx, cy = anchors[k, 0], out[k, 1]
+        out_dir = -1.0 if k == 0 else 1.0   # outward along x: the right eye is at the image's left
+        y0 = max(int(np.round(cy - table[7] * unit)), 0)
+        y1 = min(int(np.round(cy + table[8] * unit)) + 1, h)
+        for _ in range(int(table[6])):
+            x0 = int(np.round(cx)) - half
+            cols[:] = 0.0
+            n = 0.0
+            for x in range(max(x0, 0), min(x0 + 2 * half + 1, w)):
+                xa, xb = max(x - r_box, 0), min(x + r_box + 1, w)
+                for y in range(y0, y1):
+                    v = luma[y, x]
+                    if proj[y, x] >= chroma_max or v <= luma_min:
+                        continue
+                    ya, yb = max(y - r_box, bt), min(y + r_box + 1, bb)
+                    local = (integral[yb, xb] - integral[ya, xb] - integral[yb, xa] + integral[ya, xa]) / (
+                        (yb - ya) * (xb - xa))
+                    if v >= table[10] * local:
+                        cols[x - x0] += 1.0
+                        n += 1.0
+            if n < least:
+                break
+            # The columns (interpolated) where the running count passes tail and 1 - tail of the pixels.
+            lo, hi = table[2] * n, (1.0 - table[2]) * n
+            run = 0.0
+            a = b = -1.0
+            for j in range(cols.size):
+                nxt = run + cols[j]
+                if a < 0 and nxt >= lo:
+                    a = j + (lo - run) / cols[j]
+                if b < 0 and nxt >= hi:
+                    b = j + (hi - run) / cols[j]
+                run = nxt
+            a, b = x0 + a - 0.5, x0 + b - 0.5
+            ends[k, 0], ends[k, 1] = (b, a) if k == 0 else (a, b)
+            cx = 0.5 * (a + b) - out_dir * table[5] * unit
+            seen[k] = True
+            area[k] = n
+    # The two eyes are the same size: an opening much wider than the other's has taken in something beyond
+    # its outer corner (pale makeup or skin, a reflection); it is cut to the most the other allows.
+    width = np.abs(ends[:, 1] - ends[:, 0])
+    for k in range(2):
+        if not seen[k]:
+            continue
+        wk = width[k]
+        if seen[1 - k]:
+            wk = min(wk, table[12] * width[1 - k])
+        out_dir = -1.0 if k == 0 else 1.0
+        x = ends[k, 0] + out_dir * 0.5 * wk - out_dir * table[5] * unit
+        # Between least and full area the place goes over smoothly from the mean shift's to the opening's.
+        share = min(max((area[k] - least) / max(table[4] * unit * unit - least, 1e-9), 0.0), 1.0)
+        # The opening lies on the eye's blob: its place at most ``agree`` from the mean shift's, which holds
+        # to the dark eye (a window outside the eye may see pale skin, hair or the background).
+        agree = table[13] * unit
+        x = min(max(x, out[k, 0] - agree), out[k, 0] + agree)
+        out[k, 0] = share * x + (1.0 - share) * out[k, 0]
+    return ok, out

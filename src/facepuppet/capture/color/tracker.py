@@ -23,7 +23,7 @@ import numpy as np
 
 from facepuppet.capture.color.acquire import NO_CORRECTION, Acquirer
 from facepuppet.capture.color.config import ColorTrackerConfig
-from facepuppet.capture.color.eye_anchors import eye_centres
+from facepuppet.capture.color.eye_anchors import OPENING_TABLE, eye_opening_centres
 from facepuppet.capture.color.face import (
     CROP_EXTENT,
     FEATURE_BOXES,
@@ -101,6 +101,7 @@ class _Intensity:
     raw: np.ndarray | None = None           # (H, W) float32 Eq. 1's intensity
     C: np.ndarray | None = None             # (H, W) float32 the contrast C
     value: np.ndarray | None = None         # (H, W) uint8 HSV value
+    crop: np.ndarray | None = None          # (H, W, 3) uint8 the crop they were computed on
 
 
 class ColorTracker:
@@ -290,15 +291,19 @@ class ColorTracker:
 
             it.weights = self._net.predict(subarea_means(crop, self.config.measure.px))
         it.count += 1
+        it.crop = crop
         it.raw, it.C, it.value = feature_intensity(
             crop, it.weights.astype(np.float64), self._hue, self.profile.lip_hue.min_saturation,
             self._cheek_boxes, self._eye_boxes)
         return it.C
 
-    def eye_centres(self, C: np.ndarray) -> np.ndarray | None:
-        """Eye centres (2, 2) in crop pixels of the contrast C (H, W) of a face crop, near the expected anchors
-        (:func:`~facepuppet.capture.color.eye_anchors.eye_centres`), or None."""
-        found, eyes = eye_centres(C, self._place.anchors_px, *self._eye_window)
+    def eye_centres(self, C: np.ndarray, anchors: np.ndarray | None = None) -> np.ndarray | None:
+        """Eye centres (2, 2) in crop pixels of the contrast C (H, W) of the crop last transformed
+        (:meth:`intensity`), near ``anchors`` (>= 2, 2) (default the expected anchors), or None
+        (:func:`~facepuppet.capture.color.eye_anchors.eye_opening_centres`)."""
+        anchors = self._place.anchors_px if anchors is None else np.asarray(anchors, dtype=float)
+        found, eyes = eye_opening_centres(C, self._intensity.crop, self._cheek_boxes, anchors, *self._eye_window,
+                                          float(self.config.measure.px), OPENING_TABLE)
         return eyes if found else None
 
     def measure(self, rgb: np.ndarray, frame: FaceFrame, *, follow: bool, gain: float, outline: bool = True,

@@ -1,0 +1,107 @@
+"""The eye search's place along the eye: the midpoint of the eye's opening, whatever the makeup and gaze."""
+
+import cv2
+import numpy as np
+
+from facepuppet.capture.color.eye_anchors import OPENING_TABLE, eye_centres, eye_opening_centres
+
+SKIN = (205, 150, 120)
+CHEEKS = np.array([[10, 70, 30, 85], [90, 70, 110, 85]], dtype=np.int64)
+UNIT = 48.0
+WINDOW = (14, 7)
+
+
+def _face(eyes, *, iris_dx=0.0, wing=0, pale=None, closed=False, rng=None):
+    """A crop (100, 120, 3) of flat skin with two eyes (centre x, y, half width) and the matching contrast C:
+    each eye an almond opening (white) between a dark lash line above and a fainter lower lid, a dark iris
+    ``iris_dx`` pixels off the centre, an eyeliner ``wing`` pixels long beyond the outer corner, and, for the
+    eye ``pale``, a pale grey patch beyond its outer corner. Closed eyes show only the lash line."""
+    crop = np.empty((100, 120, 3), np.float32)
+    crop[:] = SKIN
+    C = np.zeros((100, 120), np.float32)
+    for k, (cx, cy, hw) in enumerate(eyes):
+        out = -1 if k == 0 else 1                              # the right eye is on the image's left
+        xs = np.arange(int(cx - hw), int(cx + hw) + 1)
+        half_h = 4.0 * np.sqrt(np.clip(1 - ((xs - cx) / hw) ** 2, 0, 1))
+        for x, hh in zip(xs, half_h, strict=True):
+            top, bottom = int(round(cy - hh)), int(round(cy + hh))
+            if not closed and bottom > top:
+                crop[top:bottom + 1, x] = (232, 230, 228)
+            crop[top - 1, x] = (40, 35, 35)                   # lash line
+            C[top - 1, x] = 1.0
+            if not closed:
+                C[bottom + 1, x] = 0.6                         # lower lid
+        if not closed:
+            cv2.circle(crop, (int(round(cx + iris_dx)), int(round(cy))), 3, (70, 60, 55), -1)
+            cv2.circle(C, (int(round(cx + iris_dx)), int(round(cy))), 3, 0.8, -1)
+        if wing:
+            x0 = int(round(cx + out * hw))
+            for j in range(wing):
+                x, y = x0 + out * j, int(round(cy - 4 - 0.4 * j))
+                crop[y - 1:y + 1, x] = (30, 25, 25)
+                C[y - 1:y + 1, x] = 1.0
+        if pale == k:
+            x0 = int(round(cx + out * (hw + 1)))
+            xa, xb = sorted((x0, x0 + out * 8))
+            crop[int(cy) - 2:int(cy) + 3, xa:xb] = (225, 222, 220)
+    if rng is not None:
+        crop += rng.normal(0, 2.0, crop.shape)
+    return np.clip(crop + 0.5, 0, 255).astype(np.uint8), C
+
+
+EYES = ((36.0, 40.0, 12.0), (84.0, 40.0, 12.0))
+ANCHORS = np.array([[37.0, 38.0], [83.0, 38.0]])
+
+
+def _search(crop, C, anchors=ANCHORS):
+    return eye_opening_centres(C, crop, CHEEKS, anchors, *WINDOW, UNIT, OPENING_TABLE)
+
+
+def test_centre_is_the_midpoint_of_the_opening_not_of_the_makeup_or_the_iris(rng):
+    crop, C = _face(EYES, iris_dx=4.0, wing=8, rng=rng)
+    ok, found = _search(crop, C)
+    assert ok
+    np.testing.assert_allclose(found[:, 0], [36.0, 84.0], atol=0.6)
+    # The height found is the mean shift's ...
+    ok, mean_shift = eye_centres(C, ANCHORS, *WINDOW)
+    np.testing.assert_allclose(found[:, 1], mean_shift[:, 1], atol=1e-9)
+    # ... whose place along the eye the wings pull outward.
+    crop, C = _face(EYES, wing=8, rng=rng)
+    ok, mean_shift = eye_centres(C, ANCHORS, *WINDOW)
+    assert ok and mean_shift[0, 0] < 35.0 and mean_shift[1, 0] > 85.0
+    np.testing.assert_allclose(_search(crop, C)[1][:, 0], [36.0, 84.0], atol=0.6)
+
+
+def test_gaze_does_not_move_the_centre(rng):
+    centres = [_search(*_face(EYES, iris_dx=dx, rng=rng))[1][:, 0] for dx in (-5.0, 0.0, 5.0)]
+    np.testing.assert_allclose(centres, [[36.0, 84.0]] * 3, atol=0.6)
+
+
+def test_found_from_an_expected_place_a_few_pixels_off(rng):
+    crop, C = _face(EYES, wing=6, rng=rng)
+    for dx in (-5.0, 5.0):
+        ok, found = _search(crop, C, ANCHORS + [dx, 0.0])
+        assert ok
+        np.testing.assert_allclose(found[:, 0], [36.0, 84.0], atol=0.8)
+
+
+def test_an_opening_wider_than_the_other_is_cut_at_its_outer_end(rng):
+    crop, C = _face(EYES, pale=1, rng=rng)
+    ok, found = _search(crop, C)
+    assert ok
+    # The pale patch widens the left eye's opening by 8 px; cut to 1.15 times the right eye's width, the centre
+    # moves out by at most 0.075 of the width (24 px): under 2 px instead of 4.
+    assert abs(found[0, 0] - 36.0) < 0.6
+    assert 84.0 <= found[1, 0] < 84.0 + 0.5 * 0.15 * 24 + 0.6
+    crop, C = _face(EYES, rng=rng)
+    assert abs(_search(crop, C)[1][1, 0] - 84.0) < 0.6
+
+
+def test_closed_eyes_keep_the_mean_shift(rng):
+    crop, C = _face(EYES, closed=True, rng=rng)
+    ok, found = _search(crop, C)
+    ok2, mean_shift = eye_centres(C, ANCHORS, *WINDOW)
+    assert ok and ok2
+    np.testing.assert_allclose(found, mean_shift, atol=1e-9)
+    # No feature intensity at all: not found, as the mean shift.
+    assert not _search(crop, np.zeros_like(C))[0]
