@@ -23,7 +23,7 @@ import numpy as np
 
 from facepuppet.capture.color.acquire import NO_CORRECTION, Acquirer
 from facepuppet.capture.color.config import ColorTrackerConfig
-from facepuppet.capture.color.eye_anchors import OPENING_TABLE, eye_opening_centres
+from facepuppet.capture.color.eye_anchors import OPENING_TABLE, eye_centres, eye_opening_centres
 from facepuppet.capture.color.face import (
     CROP_EXTENT,
     FEATURE_BOXES,
@@ -148,6 +148,10 @@ class ColorTracker:
         self._generic_skin = None if profile.skin == generic_skin else generic_skin.table()
         self._eye_window = (int(round(config.measure.eye_window[0] * px)),
                             int(round(config.measure.eye_window[1] * px)))
+        # A trained profile's anchors are where the mean shift lands on the performer's own frames, which
+        # calibrates its bias on that face out; the generic anchors are average ones, so there the eye's opening
+        # places the centre along the eye (eye_anchors module notes).
+        self._eye_opening = not profile.net
         self._layout_px = (np.asarray(profile.layout) - CROP_EXTENT[:2]) * px
         anchors_px = np.asarray((np.asarray(profile.anchors) - CROP_EXTENT[:2]) * px, dtype=float)
         self._place = Placement(anchors_px, anchors_px[:2].mean(axis=0),
@@ -299,11 +303,16 @@ class ColorTracker:
 
     def eye_centres(self, C: np.ndarray, anchors: np.ndarray | None = None) -> np.ndarray | None:
         """Eye centres (2, 2) in crop pixels of the contrast C (H, W) of the crop last transformed
-        (:meth:`intensity`), near ``anchors`` (>= 2, 2) (default the expected anchors), or None
-        (:func:`~facepuppet.capture.color.eye_anchors.eye_opening_centres`)."""
+        (:meth:`intensity`), near ``anchors`` (>= 2, 2) (default the expected anchors), or None: by the eye's
+        opening (:func:`~facepuppet.capture.color.eye_anchors.eye_opening_centres`) with the generic profile, by
+        the mean shift its anchors were learnt with (:func:`~facepuppet.capture.color.eye_anchors.eye_centres`)
+        with a trained one."""
         anchors = self._place.anchors_px if anchors is None else np.asarray(anchors, dtype=float)
-        found, eyes = eye_opening_centres(C, self._intensity.crop, self._cheek_boxes, anchors, *self._eye_window,
-                                          float(self.config.measure.px), OPENING_TABLE)
+        if self._eye_opening:
+            found, eyes = eye_opening_centres(C, self._intensity.crop, self._cheek_boxes, anchors,
+                                              *self._eye_window, float(self.config.measure.px), OPENING_TABLE)
+        else:
+            found, eyes = eye_centres(C, anchors, *self._eye_window)
         return eyes if found else None
 
     def measure(self, rgb: np.ndarray, frame: FaceFrame, *, follow: bool, gain: float, outline: bool = True,
