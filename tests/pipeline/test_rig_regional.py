@@ -48,14 +48,15 @@ def grid_character() -> Character:
     return Character(base, np.array(targets), tuple(k[0] for k in KEYS), faces, "grid")
 
 
-def performer(rng) -> Performer:
+def performer(rng, names=tuple(k[0] for k in KEYS)) -> Performer:
+    """Key expressions ``names`` that each move their own disjoint share of the points."""
     p = len(POINT_NAMES)
     neutral = rng.normal(size=(p, 3))
-    examples = np.repeat(neutral[None], len(KEYS), axis=0)
-    for i in range(len(KEYS)):
-        own = np.arange(p) % len(KEYS) == i
+    examples = np.repeat(neutral[None], len(names), axis=0)
+    for i in range(len(names)):
+        own = np.arange(p) % len(names) == i
         examples[i, own] += rng.normal(scale=0.5, size=(own.sum(), 3))
-    return Performer(neutral, examples, tuple(k[0] for k in KEYS), tuple(POINT_NAMES))
+    return Performer(neutral, examples, tuple(names), tuple(POINT_NAMES))
 
 
 @pytest.fixture
@@ -274,13 +275,7 @@ def test_regional_rig_of_a_scene_character_keeps_the_scene(tmp_path, rng):
     (tmp_path / "c.glb").write_bytes(made["glb"])
     character = read_gltf(tmp_path / "c.glb")
     names = ("jawOpen", "eyeBlinkLeft", "mouthSmileLeft")
-    p = len(POINT_NAMES)
-    neutral = rng.normal(size=(p, 3))
-    examples = np.repeat(neutral[None], len(names), axis=0)
-    for i in range(len(names)):
-        own = np.arange(p) % len(names) == i
-        examples[i, own] += rng.normal(scale=0.5, size=(own.sum(), 3))
-    perf = Performer(neutral, examples, names, tuple(POINT_NAMES))
+    perf = performer(rng, names)
     rig, _ = fit_rig(perf, character, method="regional")
     assert rig.regional
     save_rig(tmp_path / "rig.npz", rig)

@@ -80,13 +80,12 @@ def add_regional_targets(doc: dict, parts: BufferParts, source: bytes, names: Se
         arrays = morph_target_arrays(source, mesh)
         for prim, (a, b), attrs in zip(doc["meshes"][mesh]["primitives"], spans[mesh], arrays, strict=True):
             targets = prim.setdefault("targets", [])
+            moved = {n: {attr: sum(f * deltas[j] for m, j, f in binds[n] if m == mesh)
+                         for attr, deltas in attrs.items()} for n in movers}     # δ_i on this primitive
             for k in range(len(region_names)):
                 for n in movers:
-                    target = {}
-                    for attr, deltas in attrs.items():
-                        d = sum(f * deltas[j] for m, j, f in binds[n] if m == mesh)
-                        target[attr] = _accessor(doc, parts, masks[k, a:b, None] * d)
-                    targets.append(target)
+                    targets.append({attr: _accessor(doc, parts, masks[k, a:b, None] * d)
+                                    for attr, d in moved[n].items()})
         new = [f"{r}/{n}" for r in region_names for n in movers]
         for j, channel in enumerate(new):
             channels[channel].append((mesh, len(old) + j, 1.0))
