@@ -54,3 +54,20 @@ def test_format_and_version_checks(tmp_path):
         check_format({"format": np.asarray("kind")}, path, "kind file", "kind", 1)
     with pytest.raises(FacepuppetError, match="version 5 is newer"):
         check_format({"format": np.asarray("kind"), "version": np.asarray(5)}, path, "kind file", "kind", 1)
+
+
+def test_a_member_of_fixed_size_is_refused_by_its_header(tmp_path):
+    path = tmp_path / "big.npz"
+    np.savez_compressed(path, fps=np.zeros(2_000_000), x=np.arange(3))
+    with pytest.raises(FacepuppetError, match=r"big.npz: .*'fps' holds 2000000 values .* at most 1"):
+        read_npz(path, "kind file", sizes={"fps": 1})
+    assert read_npz(path, "kind file", sizes={"x": 3})["x"].tolist() == [0, 1, 2]
+
+
+def test_a_track_whose_frame_rate_is_an_array_is_refused_before_inflating(tmp_path):
+    from facepuppet.io.track import load_track
+
+    path = tmp_path / "t.npz"
+    np.savez_compressed(path, fps=np.zeros(2_000_000), frame_size=np.array([64, 64]))
+    with pytest.raises(FacepuppetError, match="t.npz: cannot read track file .*'fps' holds 2000000 values"):
+        load_track(path)

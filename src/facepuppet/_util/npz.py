@@ -19,7 +19,7 @@ import os
 import stat
 import zipfile
 import zlib
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 
 import numpy as np
 
@@ -50,14 +50,17 @@ def _header(f) -> tuple[tuple[int, ...], bool, np.dtype]:
 
 
 def _read_member(zf: zipfile.ZipFile, info: zipfile.ZipInfo, name: str, budget: list[int],
-                 limit: int) -> np.ndarray:
+                 limit: int, most: int | None) -> np.ndarray:
     with zf.open(info) as f:
         shape, fortran, dtype = _header(f)
         if dtype.hasobject:
             raise ValueError(f"member {name!r} holds Python objects (would need pickle)")
         if any(int(n) < 0 for n in shape):
             raise ValueError(f"member {name!r} has a negative shape {shape}")
-        nbytes = math.prod(int(n) for n in shape) * dtype.itemsize
+        count = math.prod(int(n) for n in shape)
+        if most is not None and count > most:
+            raise ValueError(f"member {name!r} holds {count} values (shape {shape}), the format has at most {most}")
+        nbytes = count * dtype.itemsize
         if is_text_member(name):
             if dtype.kind not in "US":
                 raise ValueError(f"member {name!r} must hold text, not {dtype}")
@@ -82,7 +85,8 @@ def _read_member(zf: zipfile.ZipFile, info: zipfile.ZipInfo, name: str, budget: 
 
 
 def read_npz(path: str | os.PathLike, what: str, *, known: Iterable[str] | None = None,
-             prefixes: Iterable[str] = (), member_bytes: int | None = None) -> dict[str, np.ndarray]:
+             prefixes: Iterable[str] = (), member_bytes: int | None = None,
+             sizes: Mapping[str, int] | None = None) -> dict[str, np.ndarray]:
     """The arrays of an ``.npz`` file the format knows, read with their headers checked first (no pickle).
 
     Parameters
@@ -97,6 +101,9 @@ def read_npz(path: str | os.PathLike, what: str, *, known: Iterable[str] | None 
     member_bytes : int, optional
         The format's own bound on one member's bytes, below ``LIMITS["member_bytes"]`` (a format of small
         arrays refuses a big one before inflating it).
+    sizes : mapping of str to int, optional
+        The most values the format allows in some members (a scalar member 1, a frame size 2): a header
+        claiming more is refused before its data is inflated.
 
     Raises
     ------
@@ -132,7 +139,7 @@ def read_npz(path: str | os.PathLike, what: str, *, known: Iterable[str] | None 
                     continue
                 if name in out:
                     raise ValueError(f"member {name!r} appears twice")
-                out[name] = _read_member(zf, info, name, budget, limit)
+                out[name] = _read_member(zf, info, name, budget, limit, (sizes or {}).get(name))
             return out
     except MemoryError as e:
         raise FacepuppetError(f"{path}: cannot read {what} (out of memory)") from e

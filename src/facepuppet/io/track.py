@@ -30,6 +30,9 @@ PROVENANCE_KEYS = ("media_size", "media_frames", "media_hash", "profile_hash", "
 #: translation), rotation matrix entries (1 plus rounding), flags; beyond it a file is damaged.
 _MAX_VALUE = {"curves": 1e7, "frame_size": 1e6, "points": 1e6, "translation": 1e6, "rotation": 1.5,
               "valid": 1e18}
+#: Most values a track's scalar and fixed-size members hold (checked in the header, before inflating).
+_SIZES = {"fps": 1, "frame_size": 2, "backend": 1, "media_size": 1, "media_frames": 1, "media_hash": 1,
+          "profile_hash": 1}
 #: Frame rates a track may have, frames per second (lowest, highest).
 FPS_RANGE = (0.1, 1000.0)
 
@@ -151,7 +154,7 @@ def save_track(path: str | os.PathLike, track: Track) -> None:
 
 def load_track(path: str | os.PathLike) -> Track:
     """Read a track file; a missing, corrupt or incomplete file raises FacepuppetError naming it."""
-    arrays = read_npz(path, "track file", known=TRACK_KEYS + TRACK_EXTRAS + PROVENANCE_KEYS)
+    arrays = read_npz(path, "track file", known=TRACK_KEYS + TRACK_EXTRAS + PROVENANCE_KEYS, sizes=_SIZES)
     missing = [k for k in TRACK_KEYS if k not in arrays]
     if missing:
         raise FacepuppetError(f"{path}: not a track file (missing {', '.join(missing)})")

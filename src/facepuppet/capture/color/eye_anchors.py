@@ -6,8 +6,9 @@ height by mean shift of the feature intensity, :func:`eye_centres`; the place al
 eye's opening, which dark makeup, shadows and the gaze do not move) are mapped onto the profile's eye anchors,
 and the layout follows. A trained profile's anchors are learnt where :func:`eye_centres` lands on the
 performer's own labelled frames, which calibrates its bias on that face out, so with it the tracker uses the
-mean shift alone; the opening's place is for the generic profile's average anchors. Where the height found sits relative to the eye itself depends on the performer
-(lashes, lid shadows, brows close above): the generic anchors may put the layout a little off. When
+mean shift alone; the opening's place is for the generic profile's average anchors. Where the height found
+sits relative to the eye itself depends on the performer (lashes, lid shadows, brows close above): the generic
+anchors may put the layout a little off. When
 the landmark backend (MediaPipe) is available, the tracker asks it once, at its first acquisition, where the
 eyes are, and moves its anchors so the layout's eye centres land on them (:func:`calibrated_anchors`).
 
