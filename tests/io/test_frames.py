@@ -98,3 +98,18 @@ def test_decoder_threads_of_a_written_video_and_of_what_takes_none(tmp_path):
     cv2.imwrite(str(tmp_path / "a.png"), frames[0])
     with open_media(tmp_path / "a.png", decode_threads=1) as src:       # a still takes no thread count
         assert src.decode_threads is None and len(list(src)) == 1
+
+
+def test_container_frame_count_of_a_video_and_of_what_is_not_one(tmp_path):
+    from facepuppet.io.frames import container_frame_count
+
+    path = tmp_path / "v.avi"
+    write_video(path, [np.zeros((32, 32, 3), np.uint8)] * 9)
+    assert container_frame_count(path) == 9
+    with open_media(path) as src:
+        assert src.frame_count == 9
+    corrupt = tmp_path / "corrupt.mp4"
+    corrupt.write_bytes(b"\x00" * 1000)
+    cv2.imwrite(str(tmp_path / "a.png"), np.zeros((8, 8, 3), np.uint8))
+    for name in (corrupt, tmp_path / "none.mp4", tmp_path / "a.png", tmp_path, f"camera:{path}"):
+        assert container_frame_count(name) is None

@@ -23,7 +23,7 @@ import numpy as np
 
 from facepuppet.errors import FacepuppetError
 
-__all__ = ["MediaSource", "open_media", "frame_time", "IMAGE_SUFFIXES", "is_still"]
+__all__ = ["MediaSource", "open_media", "frame_time", "IMAGE_SUFFIXES", "is_still", "container_frame_count"]
 
 IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png", ".ppm", ".pgm", ".bmp", ".tif", ".tiff", ".webp")
 _STILL_FPS = 30.0
@@ -158,6 +158,26 @@ def frame_time(index: int, fps: float, container: float | None, previous: float 
     if previous is not None and container <= previous:
         return max(nominal, previous + 1e-6)
     return float(container)
+
+
+def container_frame_count(path: str | os.PathLike) -> int | None:
+    """The frame count a video file's container gives, read without decoding a frame; None when the file cannot
+    be opened as a video or its container does not say (images, folders and cameras: None; :func:`open_media`
+    counts those)."""
+    import cv2
+
+    try:
+        name = _opencv_name(path)
+    except FacepuppetError:
+        return None
+    if name.startswith("camera:") or is_still(name) or not os.path.isfile(name):
+        return None
+    cap = cv2.VideoCapture(name)
+    try:
+        count = cap.get(cv2.CAP_PROP_FRAME_COUNT) if cap.isOpened() else 0
+    finally:
+        cap.release()
+    return int(count) if count and np.isfinite(count) and count > 0 else None
 
 
 def open_media(path: str | os.PathLike, *, decode_threads: int | None = None) -> MediaSource:
