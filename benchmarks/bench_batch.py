@@ -15,10 +15,10 @@ Timed in the same run, each as its own ``python -m facepuppet`` process (start-u
 - ``facepuppet batch --engine ray --workers 2`` with its own Ray runtime (started and stopped by the command:
   the cold case, Ray's start-up and shutdown included);
 - ``facepuppet batch --engine ray --address 127.0.0.1:PORT`` on a Ray cluster of 2 CPUs started once before
-  (``ray start --head --block`` on loopback, stopped at the end): what a cluster's user pays per batch;
-- ``facepuppet batch --workers 1`` pinned to one core (Linux; its worker's thread pools then get one thread):
-  the reference of the scaling over cores, since the unpinned single worker keeps more than one core busy while
-  OpenCV's loops and FFmpeg's decoder run on their other threads.
+  (``ray start --head --block`` on loopback, then one driver that connects and leaves, untimed: the first
+  connection to a new cluster waits for its start-up; stopped at the end): what a cluster's user pays per batch;
+- ``facepuppet batch --workers 1`` pinned to one core (Linux): the check that one worker is one core's worth of
+  work (its native pools have one thread each: the same time as unpinned).
 
 Printed: seconds, frames per second, the CPU seconds of the run's processes (user + system of every process the
 run waited for: the batch and its local workers; for Ray, of every process of the batch's session, its own Ray
@@ -33,8 +33,9 @@ scaling: a CPU-bound loop in 2 processes at once against 1 (2 CPUs of a virtual 
 
 ``--stages`` prints, before the runs, where one worker's CPU goes over the batch's clips: each stage's CPU seconds
 on the worker's own thread (``time.thread_time`` around decoding, tracking, its first frame per clip, mapping,
-the outputs), with 1 thread and with the thread pools of one worker alone, in a process of its own each, and the
-CPU of the whole process (its other threads: FFmpeg's decoder, OpenCV's pool).
+the outputs), with 1 thread (a worker's) and with the machine's cores in its native pools (``animate``'s
+default), in a process of its own each, and the CPU of the whole process (its other threads: FFmpeg's decoder,
+OpenCV's pool).
 
 Run: ``python benchmarks/bench_batch.py [--copies 12] [--profile builtin|trained] [--assets PATH] [--no-ray]
 [--no-one-core] [--rig RIG.npz] [--stages]``
@@ -164,6 +165,17 @@ class Cluster:
         #: What a driver needs in its environment: Ray's token authentication, on by default for a cluster that
         #: ``ray start`` made, with the token ``ray start`` saved where Ray looks for it.
         self.client_env = {"RAY_AUTH_MODE": "token"}
+        self.env = {**env, **self.client_env}
+
+    def first_driver(self) -> float:
+        """Seconds a first driver (``ray.init`` then ``ray.shutdown``, its own process) takes: the first
+        connection to a new cluster also waits for the cluster's own start-up work, which a cluster that has
+        run jobs before has done."""
+        t0 = time.perf_counter()
+        subprocess.run([sys.executable, "-c", "import sys, ray; ray.init(address=sys.argv[1], "
+                        "logging_level='WARNING'); ray.shutdown()", self.address], env=self.env, check=True,
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        return time.perf_counter() - t0
 
     def stop(self) -> None:
         if self.proc.poll() is None:
@@ -312,18 +324,20 @@ def stages(threads: int, rig: str, clips: list[str]) -> None:
     out = Path(tempfile.mkdtemp(prefix="bench-batch-stages-"))
     sha, frames = file_sha256(rig), 0
     c0, t0, w0 = time.process_time(), clock(), time.perf_counter()
-    for i, clip in enumerate(clips):
-        first["next"] = True
-        task = ClipTask(index=i, clip=clip, rig=rig, rig_sha256=sha, config=AnimateConfig(),
-                        outputs={"glb": str(out / f"{i}.glb"), "csv": str(out / f"{i}.csv")})
-        t = clock()
-        result = run_clip(task)
-        spent["clips, all stages"] += clock() - t
-        if i == 0:
-            spent["  of which the first clip"] = clock() - t
-        frames += result.frames
+    try:
+        for i, clip in enumerate(clips):
+            first["next"] = True
+            task = ClipTask(index=i, clip=clip, rig=rig, rig_sha256=sha, config=AnimateConfig(),
+                            outputs={"glb": str(out / f"{i}.glb"), "csv": str(out / f"{i}.csv")})
+            t = clock()
+            result = run_clip(task)
+            spent["clips, all stages"] += clock() - t
+            if i == 0:
+                spent["  of which the first clip"] = clock() - t
+            frames += result.frames
+    finally:
+        shutil.rmtree(out, ignore_errors=True)
     wall, main, cpu = time.perf_counter() - w0, clock() - t0, time.process_time() - c0
-    shutil.rmtree(out, ignore_errors=True)
     print(f"\none worker's stages, {threads} thread(s) in its pools, {len(clips)} clips, {frames} frames: "
           f"{wall:.1f} s, process {cpu:.1f} CPU s ({cpu / wall:.2f} cores), its own thread {main:.1f} CPU s, "
           f"its other threads {cpu - main:.1f} CPU s (load {os.getloadavg()[0]:.2f})")
@@ -353,6 +367,14 @@ def main(argv=None) -> int:
     model = args.model or os.environ.get("FACEPUPPET_FACE_LANDMARKER") or str(assets / "models" /
                                                                                 "face_landmarker.task")
     tmp = Path(tempfile.mkdtemp(prefix="bench-batch-"))
+    try:
+        return bench(args, assets, model, tmp)
+    finally:                                    # a failed or stopped run leaves no folder behind
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def bench(args, assets: Path, model: str, tmp: Path) -> int:
+    """The runs of :func:`main` in the folder ``tmp``; prints the table and the bars."""
     t0 = time.perf_counter()
     if args.rig:
         profile, rig = None, Path(args.rig)
@@ -397,8 +419,10 @@ def main(argv=None) -> int:
             if where == "cluster":
                 t0 = time.perf_counter()
                 cluster = Cluster(2, ENV)
-                print(f"Ray cluster at {cluster.address}: started in {time.perf_counter() - t0:.1f} s (not timed)")
-                time.sleep(2.0)             # its own start-up work done before the batch starts
+                started = time.perf_counter() - t0
+                print(f"Ray cluster at {cluster.address}: started in {started:.1f} s, a first driver connected and "
+                      f"left in {cluster.first_driver():.1f} s (neither timed)")
+                time.sleep(1.0)
                 extra = [*extra, "--address", cluster.address]
             out = tmp / "".join(ch if ch.isalnum() else "_" for ch in label)
             load[label] = os.getloadavg()[0]
@@ -445,7 +469,6 @@ def main(argv=None) -> int:
               f"{2 * one / cpus['batch --workers 1']:.2f}x as fast as it)")
     print(f"the machine: 2 processes of a CPU-bound loop go {machine_scaling():.2f}x as fast as 1 (the ceiling "
           f"of any 2-worker speed-up here)")
-    shutil.rmtree(tmp, ignore_errors=True)
     print(f"load: {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f} {os.getloadavg()[2]:.2f} "
           f"(1, 5, 15 min) on {os.cpu_count()} cores")
     return 0

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numba as nb
 import numpy as np
 
 from facepuppet._util.jit import KERNEL
@@ -85,7 +84,7 @@ class OneEuro:
             self._x, self._dx = x.copy(), np.zeros(x.shape)
             return x.copy()
         cfg = self.config
-        flat, self._dx = _step(x.reshape(-1, x.shape[-1]), self._x.reshape(-1, x.shape[-1]),
+        flat, self._dx = _kernel()(x.reshape(-1, x.shape[-1]), self._x.reshape(-1, x.shape[-1]),
                                self._dx.reshape(-1, x.shape[-1]),
                                float(dt), float(scale), float(cfg.min_cutoff), float(cfg.beta), float(cfg.d_cutoff))
         self._x = flat.reshape(x.shape)
@@ -93,7 +92,20 @@ class OneEuro:
         return self._x.copy()
 
 
-@nb.njit(**KERNEL)
+#: The compiled :func:`_step`, made on first use (importing this module leaves numba unloaded).
+_COMPILED: dict = {}
+
+
+def _kernel():
+    """:func:`_step` compiled with numba (loaded from numba's on-disk cache after the first process)."""
+    kernel = _COMPILED.get("step")
+    if kernel is None:
+        import numba as nb
+
+        kernel = _COMPILED["step"] = nb.njit(**KERNEL)(_step)
+    return kernel
+
+
 def _step(x: np.ndarray, last: np.ndarray, velocity_last: np.ndarray, dt: float, scale: float, min_cutoff: float,
           beta: float, d_cutoff: float):
     """One step for (N, D) points: the filtered points and their filtered velocities (see :class:`OneEuro`)."""

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from facepuppet.batch import worker
-from facepuppet.batch.worker import ClipTask, fair_share, reused_tracker, run_clip, share_cores
+from facepuppet.batch.worker import BLAS_THREAD_VARIABLES, ClipTask, reused_tracker, run_clip, share_cores
 from facepuppet.pipeline.animate import AnimateConfig, animate
 from facepuppet.pipeline.tracking import TrackerOptions
 
@@ -115,25 +115,25 @@ def test_other_trackers_are_not_kept():
     assert "mediapipe" not in worker.REUSED_BACKENDS
 
 
-@pytest.mark.parametrize(("workers", "cores", "threads"), [(1, 2, 2), (2, 2, 1), (3, 2, 1), (2, 8, 4), (3, 8, 2)])
-def test_each_worker_gets_its_share_of_the_cores(workers, cores, threads):
-    assert fair_share(workers, cores) == threads
-
-
-def test_share_cores_sizes_opencvs_and_the_decoders_pools(monkeypatch):
+def test_share_cores_sizes_opencvs_the_decoders_and_blass_pools(monkeypatch):
     import cv2
+    from threadpoolctl import threadpool_info, threadpool_limits
 
     before = cv2.getNumThreads()
-    monkeypatch.delenv("OPENCV_FFMPEG_THREADS", raising=False)
-    try:
-        share_cores(1)
-        assert cv2.getNumThreads() == 1 and os.environ["OPENCV_FFMPEG_THREADS"] == "1"
-        share_cores(0)                                                # at least one
-        assert cv2.getNumThreads() == 1
-        share_cores(3)
-        assert cv2.getNumThreads() == 3 and os.environ["OPENCV_FFMPEG_THREADS"] == "3"
-    finally:
-        cv2.setNumThreads(before)
+    for name in ("OPENCV_FFMPEG_THREADS", *BLAS_THREAD_VARIABLES):
+        monkeypatch.delenv(name, raising=False)
+    with threadpool_limits(limits=None):                             # BLAS's count put back at the end
+        try:
+            share_cores()                                            # a worker's: one thread
+            assert cv2.getNumThreads() == 1 and os.environ["OPENCV_FFMPEG_THREADS"] == "1"
+            assert all(os.environ[name] == "1" for name in BLAS_THREAD_VARIABLES)
+            assert all(pool["num_threads"] == 1 for pool in threadpool_info() if pool["user_api"] == "blas")
+            share_cores(0)                                            # at least one
+            assert cv2.getNumThreads() == 1
+            share_cores(3)
+            assert cv2.getNumThreads() == 3 and os.environ["OPENCV_FFMPEG_THREADS"] == "3"
+        finally:
+            cv2.setNumThreads(before)
 
 
 def test_a_ray_actors_clip_streams_its_frame_counts_then_animates_result(two_clips, tmp_path, monkeypatch):
@@ -148,7 +148,8 @@ def test_a_ray_actors_clip_streams_its_frame_counts_then_animates_result(two_cli
     config = AnimateConfig(tracker=TrackerOptions(profile=str(profile), progress=False))
     animate(paths[1], rig, glb=tmp_path / "ref.glb", config=config)
     before = cv2.getNumThreads()
-    monkeypatch.setenv("OPENCV_FFMPEG_THREADS", os.environ.get("OPENCV_FFMPEG_THREADS", "1"))
+    for name in ("OPENCV_FFMPEG_THREADS", *BLAS_THREAD_VARIABLES):   # set by the actor: put back after
+        monkeypatch.setenv(name, os.environ.get(name, "1"))
     try:
         actor = ClipWorker(1)
         task = ClipTask(index=7, clip=str(paths[1]), rig=str(tmp_path / "not-read.npz"), rig_sha256="shipped",

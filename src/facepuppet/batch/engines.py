@@ -22,7 +22,6 @@ from facepuppet.batch.ray_engine import RAY_MISSING, RAY_TASK_CPUS, run_ray
 from facepuppet.batch.worker import (
     ClipResult,
     ClipTask,
-    fair_share,
     guard_worker,
     one_line,
     run_guarded,
@@ -42,11 +41,11 @@ OnResult = Callable[[ClipResult], None]
 _QUEUE = None        # the progress queue of this worker process (set by _init_local)
 
 
-def _init_local(progress_queue, threads: int) -> None:
+def _init_local(progress_queue) -> None:
     global _QUEUE
     _QUEUE = progress_queue
     guard_worker()
-    share_cores(threads)
+    share_cores()
 
 
 def _local_task(task: ClipTask) -> ClipResult:
@@ -65,7 +64,7 @@ def _drain(q, on_progress: OnProgress) -> None:
 def run_local(tasks: list[ClipTask], *, workers: int | None, on_progress: OnProgress, on_result: OnResult,
               address: str | None = None) -> None:
     """Run the tasks in ``workers`` processes of this machine (None: ``os.cpu_count()``; spawned, each living
-    for the whole batch, with :func:`~facepuppet.batch.worker.fair_share` threads in its native pools).
+    for the whole batch, with one thread in its native pools: :func:`~facepuppet.batch.worker.share_cores`).
 
     ``address`` is not used (the Ray engine's).
     """
@@ -76,7 +75,7 @@ def run_local(tasks: list[ClipTask], *, workers: int | None, on_progress: OnProg
     before = set(multiprocessing.active_children())
     workers = max(1, min(int(workers or os.cpu_count() or 1), len(tasks)))
     with ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_init_local,
-                             initargs=(progress, fair_share(workers))) as pool:
+                             initargs=(progress,)) as pool:
         futures = {pool.submit(_local_task, t): t for t in tasks}
         ours = [p for p in multiprocessing.active_children() if p not in before]
         try:

@@ -154,6 +154,8 @@ def run_ray(tasks: list[ClipTask], *, workers: int | None, address: str | None, 
 def _drive(ray, tasks, slots: int, actors: list, on_progress, on_result) -> None:
     """Feed the tasks to ``slots`` actors (appended to ``actors``) and hand back their progress and results."""
     remote = ray.remote(num_cpus=RAY_TASK_CPUS)(ClipWorker)
+    for _ in range(slots):                      # the actors start (processes, imports) while the rigs go out
+        actors.append(remote.remote(RAY_TASK_CPUS))
     rigs: dict = {}
     for t in tasks:
         if t.rig_sha256 not in rigs:
@@ -166,9 +168,8 @@ def _drive(ray, tasks, slots: int, actors: list, on_progress, on_result) -> None
             task = todo.pop()
             running[actor.run.remote(task, [rigs[task.rig_sha256]])] = (actor, task)
 
-    for _ in range(slots):
-        actors.append(remote.remote(RAY_TASK_CPUS))
-        give(actors[-1])
+    for actor in actors:
+        give(actor)
     while running:
         ready, _ = ray.wait(list(running), num_returns=len(running), timeout=POLL_S)
         for gen in ready:

@@ -82,8 +82,13 @@ class BatchSummary:
 
 
 def _frame_count(clip: str) -> int:
-    from facepuppet.io.frames import open_media
+    """The clip's frame count for the progress bar and the order of the clips: the video container's (read
+    without decoding), else the frame source's (a folder of images), 0 for a clip that cannot be read."""
+    from facepuppet.io.frames import container_frame_count, open_media
 
+    count = container_frame_count(clip)
+    if count is not None:
+        return count
     try:
         with open_media(clip) as source:
             return int(source.frame_count or 0)

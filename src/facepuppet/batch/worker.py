@@ -4,7 +4,7 @@ A worker process keeps what does not change from clip to clip: each rig (:func:`
 by its content hash), the tracker (:func:`reused_tracker`: one per tracker options and profile contents, reset to
 the start of a take before each clip, so that a clip's outputs are the same bytes as ``facepuppet animate``
 writes), and with them the colour tracker's compiled kernels and the shared landmark backend. Its native thread
-pools are sized to its share of the cores (:func:`share_cores`).
+pools get one thread (:func:`share_cores`): a worker is one core's worth of work.
 
 Progress goes out as ``(task index, frames)`` increments through a queue-like object with ``put`` (a
 ``multiprocessing`` queue locally, a Ray queue on a cluster), at most every :data:`PROGRESS_EVERY_S`.
@@ -26,10 +26,17 @@ from facepuppet._util.interrupt import Interrupted, handle_signals
 from facepuppet.pipeline.animate import AnimateConfig
 
 __all__ = ["ClipTask", "ClipResult", "run_clip", "run_guarded", "cached_rig", "reused_tracker", "share_cores",
-           "fair_share", "guard_worker", "one_line", "PROGRESS_EVERY_S", "PARENT_WATCH_S", "PARENT_GONE_REPEAT_S",
-           "REUSED_BACKENDS"]
+           "WORKER_THREADS", "BLAS_THREAD_VARIABLES", "guard_worker", "one_line", "PROGRESS_EVERY_S",
+           "PARENT_WATCH_S", "PARENT_GONE_REPEAT_S", "REUSED_BACKENDS"]
 
 log = logging.getLogger(__name__)
+
+#: Threads of each worker's native pools (:func:`share_cores`): a worker is one core's worth of work, as a Ray
+#: actor reserving one CPU is counted.
+WORKER_THREADS = 1
+
+#: Environment variables that size the thread pools of BLAS and OpenMP libraries.
+BLAS_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 #: Seconds between two progress messages of a worker.
 PROGRESS_EVERY_S = 0.25
@@ -131,34 +138,34 @@ def reused_tracker(options):
     return tracker
 
 
-def fair_share(workers: int, cores: int | None = None) -> int:
-    """Threads of each of ``workers`` processes sharing ``cores`` (default: the cores this process may run on):
-    ``cores // workers``, at least 1."""
-    if cores is None:
-        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    return max(1, int(cores) // max(1, int(workers)))
+def share_cores(threads: int = WORKER_THREADS) -> None:
+    """Size this process's native thread pools to ``threads`` (at least 1): OpenCV's, FFmpeg's decoder's and BLAS's.
 
+    A clip's work runs on one thread, but libraries start pools sized to the whole machine: OpenCV's parallel
+    loops (the colour tracker's face cascade splits its work over one thread per core), FFmpeg's decoder (one
+    frame thread per core, decoding ahead of the tracker) and BLAS. A worker with those pools keeps more than
+    the one CPU it is counted as (and a Ray actor reserves) busy part of the time, and N workers on N cores
+    start N threads each where one fits. With :data:`WORKER_THREADS` each, a worker is one core's worth of work
+    and N workers take N cores. The thread counts change no output: FFmpeg decodes the same frames and the
+    cascade finds the same faces with any number of threads.
 
-def share_cores(threads: int) -> None:
-    """Size this process's native thread pools to ``threads`` (at least 1): OpenCV's and FFmpeg's decoder's.
-
-    A clip's work runs mostly on one thread, but two libraries start pools sized to the whole machine: OpenCV's
-    parallel loops (the colour tracker's face cascade, run on every frame where the face is being found again,
-    splits its work over one thread per core) and FFmpeg's decoder (one frame thread per core, decoding ahead
-    of the tracker). One worker alone so takes more than one core part of the time, and N workers on N cores
-    each start N threads where one fits: the N workers cannot run N times as fast as one. With
-    :func:`fair_share` threads each, N workers take the cores between them. The thread counts change no
-    output: FFmpeg decodes the same frames and the cascade finds the same faces with any number of threads.
-
-    numba's kernels are compiled without ``parallel`` (no pool of their own) and BLAS sees only small matrices,
-    which it multiplies on the calling thread: neither needs a limit. ``OPENCV_FFMPEG_THREADS`` is read when a
-    video is opened, so this is called before the worker's first clip.
+    ``OPENCV_FFMPEG_THREADS`` is read when a video is opened (:func:`facepuppet.io.frames.open_media`), and the
+    ``*_NUM_THREADS`` variables by the libraries loaded after this call; BLAS libraries already loaded are limited
+    through ``threadpoolctl`` (a dependency of scikit-learn) where it is installed. numba's kernels are compiled
+    without ``parallel`` and start no pool.
     """
     import cv2
 
     threads = max(1, int(threads))
     os.environ["OPENCV_FFMPEG_THREADS"] = str(threads)
+    for name in BLAS_THREAD_VARIABLES:
+        os.environ[name] = str(threads)
     cv2.setNumThreads(threads)
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:
+        return
+    threadpool_limits(limits=threads)
 
 
 class _Progress:

@@ -7,6 +7,10 @@ context manager. A camera is named ``camera:N`` (device N); tests stand a video 
 Frame times: a video file's source records the container's timestamp of the frame last read
 (``last_time``, seconds, from ``CAP_PROP_POS_MSEC``); :func:`frame_time` uses it where it differs from
 ``index / fps`` by half a frame or more (variable-frame-rate video), else ``index / fps``.
+
+Decoder threads: FFmpeg decodes a video file on its own threads (one per core by default, decoding frames ahead
+of the reader), or on ``decode_threads`` of them (:func:`open_media`; 1: on the reading thread alone, between
+two reads); else on ``OPENCV_FFMPEG_THREADS`` of them when that is set. The frames are the same with any count.
 """
 
 from __future__ import annotations
@@ -19,7 +23,7 @@ import numpy as np
 
 from facepuppet.errors import FacepuppetError
 
-__all__ = ["MediaSource", "open_media", "frame_time", "IMAGE_SUFFIXES", "is_still"]
+__all__ = ["MediaSource", "open_media", "frame_time", "IMAGE_SUFFIXES", "is_still", "container_frame_count"]
 
 IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png", ".ppm", ".pgm", ".bmp", ".tif", ".tiff", ".webp")
 _STILL_FPS = 30.0
@@ -44,11 +48,15 @@ class MediaSource:
     frame_count : int or None
         Number of frames if known in advance (None for a camera).
     is_camera : bool
+    decode_threads : int or None
+        Threads FFmpeg decodes the video file on (None for cameras, images and backends that do not say).
     """
 
     def __init__(self, path: str, fps: float, frame_size: tuple[int, int], frame_count: int | None,
-                 frames: Iterator[np.ndarray], closer=None, is_camera: bool = False):
+                 frames: Iterator[np.ndarray], closer=None, is_camera: bool = False,
+                 decode_threads: int | None = None):
         self.path = path
+        self.decode_threads = decode_threads
         self.fps = fps
         self.frame_size = frame_size
         self.frame_count = frame_count
@@ -94,12 +102,17 @@ def _read_image(path: Path) -> np.ndarray:
     return cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
 
 
-def _open_video(path: str, label: str, camera: bool) -> MediaSource:
+def _open_video(path: str, label: str, camera: bool, threads: int | None = None) -> MediaSource:
     import cv2
 
     # FFmpeg's own messages ("moov atom not found") would follow our one-line error; quiet unless the user chose
     os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
-    cap = cv2.VideoCapture(int(path) if path.isdigit() else path)
+    cap = None
+    if threads is not None and not camera:
+        # a backend that does not take the thread count opens nothing with it: then opened as without
+        cap = cv2.VideoCapture(path, cv2.CAP_ANY, [cv2.CAP_PROP_N_THREADS, max(1, int(threads))])
+    if cap is None or not cap.isOpened():
+        cap = cv2.VideoCapture(int(path) if path.isdigit() else path)
     if not cap.isOpened():
         raise FacepuppetError(f"{label}: cannot open {'camera' if camera else 'video'}")
     ok, first = cap.read()
@@ -125,7 +138,10 @@ def _open_video(path: str, label: str, camera: bool) -> MediaSource:
             source.last_time = None if camera else _seconds(cap.get(cv2.CAP_PROP_POS_MSEC))
             yield cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
 
-    source = MediaSource(label, fps, (w, h), count, frames(), closer=cap.release, is_camera=camera)
+    used = None if camera else cap.get(cv2.CAP_PROP_N_THREADS)
+    used = int(used) if used and np.isfinite(used) and used > 0 else None
+    source = MediaSource(label, fps, (w, h), count, frames(), closer=cap.release, is_camera=camera,
+                         decode_threads=used)
     return source
 
 
@@ -144,8 +160,35 @@ def frame_time(index: int, fps: float, container: float | None, previous: float 
     return float(container)
 
 
-def open_media(path: str | os.PathLike) -> MediaSource:
+def container_frame_count(path: str | os.PathLike) -> int | None:
+    """The frame count a video file's container gives, read without decoding a frame; None when the file cannot
+    be opened as a video or its container does not say (images, folders and cameras: None; :func:`open_media`
+    counts those)."""
+    import cv2
+
+    try:
+        name = _opencv_name(path)
+    except FacepuppetError:
+        return None
+    if name.startswith("camera:") or is_still(name) or not os.path.isfile(name):
+        return None
+    cap = cv2.VideoCapture(name)
+    try:
+        count = cap.get(cv2.CAP_PROP_FRAME_COUNT) if cap.isOpened() else 0
+    finally:
+        cap.release()
+    return int(count) if count and np.isfinite(count) and count > 0 else None
+
+
+def open_media(path: str | os.PathLike, *, decode_threads: int | None = None) -> MediaSource:
     """Open a video file, an image, a folder of images, or ``camera:N`` and return its frame source.
+
+    Parameters
+    ----------
+    path : str or PathLike
+    decode_threads : int, optional
+        Threads FFmpeg decodes a video file on (at least 1; module notes); None: ``OPENCV_FFMPEG_THREADS`` if
+        set, else one per core. Cameras and images take no thread count.
 
     Raises
     ------
@@ -179,4 +222,4 @@ def open_media(path: str | os.PathLike) -> MediaSource:
         img = _read_image(p)
         h, w = img.shape[:2]
         return MediaSource(label, _STILL_FPS, (w, h), 1, iter([img]))
-    return _open_video(label, label, camera=False)
+    return _open_video(label, label, camera=False, threads=decode_threads)
