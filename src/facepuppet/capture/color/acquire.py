@@ -44,7 +44,7 @@ from facepuppet.capture.curves import CURVE_NAMES, bezier_points
 __all__ = ["Acquirer", "Measurer", "CANDIDATE_SHIFTS", "CANDIDATE_SCALES", "LIGHT_PERCENTILE", "LIGHT_TOP",
            "MOUTH_OFFSET_LIMIT", "MIN_UNIT", "LOST_REACH", "GLABELLA",
            "GLABELLA_SKIN", "REFINE_STEPS", "SAME_FACE", "ANCHOR_STEPS", "ANCHOR_TOLERANCE",
-           "candidate_frames", "fit_light", "likeness", "mouth_offset"]
+           "candidate_frames", "fit_light", "likeness", "mouth_offset", "skin_between_brows"]
 
 log = logging.getLogger(__name__)
 
@@ -115,6 +115,18 @@ def mouth_offset(curves: np.ndarray, frame: FaceFrame, layout: np.ndarray, px: f
         @ np.linalg.inv(M[:, :2]).T
     drawn = np.concatenate([bezier_points(c, MOUTH_SAMPLES) for c in np.asarray(layout)[_LIPS]]).mean(axis=0)
     return np.clip(seen - drawn, -MOUTH_OFFSET_LIMIT, MOUTH_OFFSET_LIMIT) * px
+
+
+def skin_between_brows(crop: np.ndarray, skins: list[SkinModel], px: float) -> bool:
+    """Whether a face crop (H, W, 3) uint8 of ``px`` pixels per face unit shows skin between the brows
+    (:data:`GLABELLA`, over :data:`GLABELLA_SKIN` of its pixels) to any of the skin models ``skins``.
+
+    An acquisition candidate without it is judged as one whose cheeks show no skin (it needs the likeness
+    ``acquire.min_skinless_score``): the eye search may take the dark scene above a skin-coloured object's edge
+    for a pair of eyes, with the object's skin below them where the cheeks are.
+    """
+    box = np.array([box_in_crop(GLABELLA, px)], dtype=np.int64)
+    return any(skin_fraction(crop, box, s.table()) > GLABELLA_SKIN for s in skins)
 
 
 def _skin_share(rgb: np.ndarray, box: np.ndarray, skin) -> float:
@@ -270,20 +282,12 @@ class Acquirer:
                 cand = result.frame
             if result is None or not result.eyes_found or not np.isfinite(likeness(result, last, cost)):
                 continue
-            if not self.place.skinless_ok and result.score < skinless and not self.skin_between_brows(result.seen[0]):
+            if not self.place.skinless_ok and result.score < skinless and not skin_between_brows(
+                    result.seen[0], [self.tracker.profile.skin, SkinModel()], self.tracker.config.measure.px):
                 continue
             if best is None or likeness(result, last, cost) > likeness(best, last, cost):
                 best = result
         return best
-
-    def skin_between_brows(self, crop: np.ndarray) -> bool:
-        """Whether the face crop (H, W, 3) uint8 shows skin between the brows (:data:`GLABELLA`), to the profile's
-        skin model or the generic one. A candidate without it is judged as one whose cheeks show no skin (it
-        needs the likeness ``acquire.min_skinless_score``): the eye search may take the dark scene above a
-        skin-coloured object's edge for eyes, with skin below them where the cheeks are."""
-        box = np.array([box_in_crop(GLABELLA, self.tracker.config.measure.px)], dtype=np.int64)
-        skins = [self.tracker.profile.skin, SkinModel()]
-        return any(skin_fraction(crop, box, s.table()) > GLABELLA_SKIN for s in skins)
 
     def _calibrate_anchors(self, rgb: np.ndarray, frame: FaceFrame) -> FaceFrame | None:
         """Move the eye anchors onto the eye blobs of a crop placed by the landmark backend's eyes (the layout's
