@@ -36,38 +36,56 @@ def _value(name: str) -> float:
     return float(GLARE[name][0])
 
 
+_LIFT, _CHROMA, _TALL, _WIDE = (_value(k) for k in ("lift", "chroma", "tall", "wide"))
+
+
 def glare_mask(crop: np.ndarray, cheeks: np.ndarray, eyes: np.ndarray, unit: float) -> np.ndarray | None:
     """The reflection's pixels (H, W) uint8 (255) around the eyes of a face crop, or None where there is none.
 
     ``crop``: (H, W, 3) uint8 RGB; ``cheeks``: (K, 4) int rectangles of skin (the skin's reference light and
-    colour); ``eyes``: (2, 4) int the eye rectangles (the part searched spans them, :data:`GLARE` ``below``
-    lower); ``unit``: crop pixels per face unit.
+    colour: their mean); ``eyes``: (2, 4) int the eye rectangles (the part searched spans them, :data:`GLARE`
+    ``below`` lower); ``unit``: crop pixels per face unit. The patches' sizes are read on a half-resolution mask.
     """
     h, w = crop.shape[:2]
-    ycc = cv2.cvtColor(crop, cv2.COLOR_RGB2YCrCb)
-    skin = np.concatenate([ycc[max(y0, 0):y1, max(x0, 0):x1].reshape(-1, 3) for x0, y0, x1, y1 in cheeks])
-    if len(skin) == 0:
+    (ex0, ey0, ex1, ey1), (fx0, fy0, fx1, fy1) = np.asarray(eyes).tolist()
+    x0, y0 = max(min(ex0, fx0), 0), max(min(ey0, fy0), 0)
+    x1, y1 = min(max(ex1, fx1), w), min(int(max(ey1, fy1) + _value("below") * unit), h)
+    if x1 - x0 < 2 or y1 - y0 < 2:
         return None
-    ys, cr, cb = np.median(skin.astype(np.float32), axis=0) - np.array([0.0, 128.0, 128.0], np.float32)
-    s2 = float(cr * cr + cb * cb)
+    n, total = 0, np.zeros(3)
+    for cx0, cy0, cx1, cy1 in np.asarray(cheeks).tolist():
+        box = crop[max(cy0, 0):cy1, max(cx0, 0):cx1]
+        if box.size:
+            total += np.asarray(cv2.mean(cv2.cvtColor(box, cv2.COLOR_RGB2YCrCb))[:3]) * (box.size // 3)
+            n += box.size // 3
+    if n == 0:
+        return None
+    ys, cr, cb = (total / n - (0.0, 128.0, 128.0)).tolist()
+    s2 = cr * cr + cb * cb
     if s2 < 1.0:
         return None                         # no skin chroma to tell a colourless patch from
-    x0, y0 = max(int(eyes[:, 0].min()), 0), max(int(eyes[:, 1].min()), 0)
-    x1, y1 = min(int(eyes[:, 2].max()), w), min(int(eyes[:, 3].max() + _value("below") * unit), h)
-    if x1 <= x0 or y1 <= y0:
+    part = cv2.cvtColor(np.ascontiguousarray(crop[y0:y1, x0:x1]), cv2.COLOR_RGB2YCrCb)
+    # The pixels brighter than the skin, then those of them less coloured than it: (Cr, Cb) along the skin's
+    # direction under the reflection's most.
+    least = min(_TALL, _WIDE) * unit
+    lit = np.flatnonzero(cv2.compare(cv2.extractChannel(part, 0), (1.0 + _LIFT) * ys, cv2.CMP_GT))
+    if lit.size < least:
         return None
-    part = ycc[y0:y1, x0:x1].astype(np.float32)
-    proj = (part[..., 1] - 128.0) * cr + (part[..., 2] - 128.0) * cb
-    bright = (part[..., 0] > (1.0 + _value("lift")) * ys) & (proj < _value("chroma") * s2)
-    if not bright.any():
+    px = part.reshape(-1, 3)[lit].astype(np.float32)
+    lit = lit[(px[:, 1] - 128.0) * cr + (px[:, 2] - 128.0) * cb < _CHROMA * s2]
+    if lit.size < least:
         return None
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(bright.astype(np.uint8), connectivity=8)
-    big = (stats[:, cv2.CC_STAT_HEIGHT] > _value("tall") * unit) | (stats[:, cv2.CC_STAT_WIDTH] > _value("wide") * unit)
+    bright = np.zeros(part.shape[:2], bool)
+    bright.flat[lit] = True
+    half = bright[::2, ::2].astype(np.uint8)
+    _, labels, stats, _ = cv2.connectedComponentsWithStats(half, connectivity=8)
+    big = (stats[:, cv2.CC_STAT_HEIGHT] > 0.5 * _TALL * unit) | (stats[:, cv2.CC_STAT_WIDTH] > 0.5 * _WIDE * unit)
     big[0] = False
     if not big[1:].any():
         return None
+    keep = np.repeat(np.repeat(big[labels], 2, axis=0), 2, axis=1)[:y1 - y0, :x1 - x0] & bright
     mask = np.zeros((h, w), np.uint8)
-    mask[y0:y1, x0:x1] = np.where(big[labels], 255, 0).astype(np.uint8)
+    mask[y0:y1, x0:x1][keep] = 255
     g = max(int(round(_value("grow") * unit)), 1)
     return cv2.dilate(mask, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * g + 1, 2 * g + 1)))
 
