@@ -90,3 +90,14 @@ def test_skin_between_the_brows_is_read_in_the_glabella():
     fringe = skin.copy()
     fringe[:int(round((GLABELLA[1] - CROP_EXTENT[1]) * px))] = (30, 30, 34)
     assert skin_between_brows(fringe, skins, px)
+
+
+def test_the_light_gain_is_the_light_transforms_stretch_at_least_one():
+    from facepuppet.capture.color.measure import Placement
+
+    place = Placement(np.zeros((3, 2)), np.zeros(2), calibrated=True)
+    assert place.light_gain == 1.0
+    place.light = np.column_stack([np.diag([2.0, 2.5, 3.0]), np.full(3, -10.0)])
+    assert abs(place.light_gain - 2.5) < 1e-12
+    place.light = np.diag([0.8, 0.9, 0.7])                  # a bright frame toned down: no more noise than filmed
+    assert place.light_gain == 1.0

@@ -229,7 +229,7 @@ class ColorTracker:
         fol, cfg = self._follow, self.config.follow
         result = None
         if fol.frame is not None:
-            result = self.measure(rgb, fol.frame, follow=True, gain=cfg.frame_gain)
+            result = self.measure(rgb, fol.frame, follow=True, gain=cfg.frame_gain / self._place.light_gain)
             fol.misses = 0 if result.eyes_found else fol.misses + 1
             if not fol.still_the_face(result.frame, self._follower.correlation, cfg):
                 result = None
