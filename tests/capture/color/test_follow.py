@@ -53,3 +53,51 @@ def test_the_search_area_is_the_face_and_its_size_around_it_clipped_to_the_image
     assert (x0, y0) == (int(200 + AROUND[0] * 40), int(150 + AROUND[1] * 40))
     assert (x1, y1) == (int(200 + AROUND[2] * 40) + 1, int(150 + AROUND[3] * 40) + 1)
     assert search_area(_frame(100.0), (480, 640, 3)) == (0, 0, 521, 480)
+
+
+def _measured(frame, score=0.5):
+    from facepuppet.capture.color.measure import Measurement
+
+    return Measurement(curves=None, frame=frame, eyes_found=True, score=score, correction=np.zeros(4), seen=None)
+
+
+def test_a_face_just_lost_is_found_again_only_near_where_it_was():
+    from facepuppet.capture.color.acquire import LOST_REACH, likeness
+
+    last = _frame(40.0)
+    near = FaceFrame(last.origin + [0.9 * LOST_REACH * 40.0, 0.0], last.axis.copy())
+    far = FaceFrame(last.origin + [0.0, 1.1 * LOST_REACH * 40.0], last.axis.copy())
+    assert likeness(_measured(near), last, 0.3) == 0.5                    # same size: no resize cost
+    assert likeness(_measured(far), last, 0.3) == -np.inf
+    assert likeness(_measured(far), None, 0.3) == 0.5                     # no face just lost: anywhere
+
+
+def test_skin_between_the_brows_is_read_in_the_glabella():
+    from facepuppet.capture.color.acquire import GLABELLA, skin_between_brows
+    from facepuppet.capture.color.face import CROP_EXTENT, SkinModel
+
+    px = 48.0
+    w, h = int(round((CROP_EXTENT[2] - CROP_EXTENT[0]) * px)), int(round((CROP_EXTENT[3] - CROP_EXTENT[1]) * px))
+    skins = [SkinModel()]
+    skin = np.zeros((h, w, 3), np.uint8)
+    skin[:] = (200, 140, 115)                                  # inside the generic skin model
+    assert skin_between_brows(skin, skins, px)
+    # The scene above a skin-coloured object's edge: dark down to the eyes' height, skin below.
+    edge = skin.copy()
+    edge[:int(round((0.0 - CROP_EXTENT[1]) * px))] = (30, 30, 34)
+    assert not skin_between_brows(edge, skins, px)
+    # Dark only above the glabella (hair down to the brows): still skin between them.
+    fringe = skin.copy()
+    fringe[:int(round((GLABELLA[1] - CROP_EXTENT[1]) * px))] = (30, 30, 34)
+    assert skin_between_brows(fringe, skins, px)
+
+
+def test_the_light_gain_is_the_light_transforms_stretch_at_least_one():
+    from facepuppet.capture.color.measure import Placement
+
+    place = Placement(np.zeros((3, 2)), np.zeros(2), calibrated=True)
+    assert place.light_gain == 1.0
+    place.light = np.column_stack([np.diag([2.0, 2.5, 3.0]), np.full(3, -10.0)])
+    assert abs(place.light_gain - 2.5) < 1e-12
+    place.light = np.diag([0.8, 0.9, 0.7])                  # a bright frame toned down: no more noise than filmed
+    assert place.light_gain == 1.0

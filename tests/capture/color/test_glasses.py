@@ -134,9 +134,10 @@ def test_brows_and_lids_stay_on_their_features_behind_rims(clips, kind):
 
 
 def test_brows_and_lids_behind_a_reflection(clips):
-    # A bright band across each lens over the eye (60 % white) washes out the lids and the white of the eye.
-    # Measured: 0.041-0.081 (0.023-0.036 as filmed): the curves stay near the eyes but off the lids.
+    # A bright band across each lens over the eye (60 % white) hides the lids and part of the eye: the tracker
+    # takes it for missing evidence (:mod:`~facepuppet.capture.color.glare`), not for skin or the white of the eye.
+    # Measured: 0.029-0.045 (0.023-0.036 as filmed), every frame tracked.
     for clip, (frames, ref, (bare, _)) in clips.items():
         worn, tracked = _track_nme(frames, ref, "reflection")
         assert tracked == 1.0, (clip, tracked)
-        assert worn < 0.09, (clip, worn, bare)
+        assert worn < 0.05, (clip, worn, bare)

@@ -28,6 +28,7 @@ from facepuppet.capture.color.eye_anchors import (
 from facepuppet.capture.color.face import (
     FaceFrame,
     SkinModel,
+    box_in_crop,
     find_face,
     light_balance,
     same_frame,
@@ -37,11 +38,13 @@ from facepuppet.capture.color.face import (
 from facepuppet.capture.color.likeness import FaceTemplate
 from facepuppet.capture.color.measure import Measurement, Placement
 from facepuppet.capture.color.profile import Profile
+from facepuppet.capture.color.transform import skin_fraction
 from facepuppet.capture.curves import CURVE_NAMES, bezier_points
 
 __all__ = ["Acquirer", "Measurer", "CANDIDATE_SHIFTS", "CANDIDATE_SCALES", "LIGHT_PERCENTILE", "LIGHT_TOP",
-           "MOUTH_OFFSET_LIMIT", "MIN_UNIT", "REFINE_STEPS", "SAME_FACE", "ANCHOR_STEPS", "ANCHOR_TOLERANCE",
-           "candidate_frames", "fit_light", "likeness", "mouth_offset"]
+           "MOUTH_OFFSET_LIMIT", "MIN_UNIT", "LOST_REACH", "GLABELLA",
+           "GLABELLA_SKIN", "REFINE_STEPS", "SAME_FACE", "ANCHOR_STEPS", "ANCHOR_TOLERANCE",
+           "candidate_frames", "fit_light", "likeness", "mouth_offset", "skin_between_brows"]
 
 log = logging.getLogger(__name__)
 
@@ -60,6 +63,11 @@ ANCHOR_TOLERANCE = 0.25                 # crop pixels   step below which the fix
 WINDOW_SKIN = 0.3                       # fraction      of a cascade window's middle that must look like skin
 LOST_SIZES = (0.65, 1.5)                # ratio         sizes a face just lost may be found again at, of its size
 LOST_ROLL = 0.5                         # radians       most roll a face just lost may be found again with
+LOST_REACH = 2.0                        # face units    farthest from where a face was just lost it is found again
+#: Between the brows, above the eyes (face units x0, y0, x1, y1): skin on every face, never on a skin-coloured
+#: object whose dark surroundings the eye search took for eyes.
+GLABELLA = (-0.1, -0.5, 0.1, -0.1)
+GLABELLA_SKIN = 0.3                     # fraction      of the glabella's pixels that must look like skin
 CASCADE_EVERY = 5                       # frames        while no face is found, the whole frame's cascade runs once in
 #: The eyes' correction of a frame that keeps it as it is (a, b, tx, ty).
 NO_CORRECTION = (1.0, 0.0, 0.0, 0.0)
@@ -86,12 +94,14 @@ def likeness(result: Measurement, last: FaceFrame | None, resize_cost: float) ->
     """How much a measurement's crop looks like a face, less ``resize_cost`` per unit of log size change from
     ``last``, the frame the face was just lost in (if any); -inf for a frame no face moves to from ``last`` in
     the moments it is lost (a size outside :data:`LOST_SIZES` of its size, a roll more than :data:`LOST_ROLL`
-    from its roll: a hand over the face with the face's eyes, say)."""
+    from its roll: a hand over the face with the face's eyes, say; a place more than :data:`LOST_REACH` of its
+    units away: a face behind a passing hand is still where it was, a skin-coloured thing elsewhere is not it)."""
     if last is None:
         return result.score
     ratio = result.frame.unit / last.unit
     roll = abs((result.frame.roll - last.roll + np.pi) % (2 * np.pi) - np.pi)
-    if not LOST_SIZES[0] < ratio < LOST_SIZES[1] or roll > LOST_ROLL:
+    far = float(np.hypot(*(result.frame.origin - last.origin))) > LOST_REACH * last.unit
+    if not LOST_SIZES[0] < ratio < LOST_SIZES[1] or roll > LOST_ROLL or far:
         return -np.inf
     return result.score - resize_cost * abs(np.log(ratio))
 
@@ -105,6 +115,18 @@ def mouth_offset(curves: np.ndarray, frame: FaceFrame, layout: np.ndarray, px: f
         @ np.linalg.inv(M[:, :2]).T
     drawn = np.concatenate([bezier_points(c, MOUTH_SAMPLES) for c in np.asarray(layout)[_LIPS]]).mean(axis=0)
     return np.clip(seen - drawn, -MOUTH_OFFSET_LIMIT, MOUTH_OFFSET_LIMIT) * px
+
+
+def skin_between_brows(crop: np.ndarray, skins: list[SkinModel], px: float) -> bool:
+    """Whether a face crop (H, W, 3) uint8 of ``px`` pixels per face unit shows skin between the brows
+    (:data:`GLABELLA`, over :data:`GLABELLA_SKIN` of its pixels) to any of the skin models ``skins``.
+
+    An acquisition candidate without it is judged as one whose cheeks show no skin (it needs the likeness
+    ``acquire.min_skinless_score``): the eye search may take the dark scene above a skin-coloured object's edge
+    for a pair of eyes, with the object's skin below them where the cheeks are.
+    """
+    box = np.array([box_in_crop(GLABELLA, px)], dtype=np.int64)
+    return any(skin_fraction(crop, box, s.table()) > GLABELLA_SKIN for s in skins)
 
 
 def _skin_share(rgb: np.ndarray, box: np.ndarray, skin) -> float:
@@ -249,6 +271,7 @@ class Acquirer:
         """Pull each candidate face frame onto the eyes; the result that looks most like a face
         (:func:`likeness` with ``last``; none a face just lost cannot move to), or None."""
         cost = self.tracker.config.acquire.resize_cost
+        skinless = self.tracker.config.acquire.min_skinless_score
         best = None
         for cand in candidates:
             result = None
@@ -258,6 +281,9 @@ class Acquirer:
                     break
                 cand = result.frame
             if result is None or not result.eyes_found or not np.isfinite(likeness(result, last, cost)):
+                continue
+            if not self.place.skinless_ok and result.score < skinless and not skin_between_brows(
+                    result.seen[0], [self.tracker.profile.skin, SkinModel()], self.tracker.config.measure.px):
                 continue
             if best is None or likeness(result, last, cost) > likeness(best, last, cost):
                 best = result

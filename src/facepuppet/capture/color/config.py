@@ -63,7 +63,8 @@ class FollowConfig:
     scale : float
         Resolution of the crops aligned, as a fraction of the tracker's crop.
     frame_gain : float
-        Gain of the filter on the eyes' correction of the followed face frame (1: no smoothing).
+        Gain of the filter on the eyes' correction of the followed face frame (1: no smoothing), divided by the
+        light transform's gain (:attr:`~.measure.Placement.light_gain`: a dim frame brightened is noisier).
     max_misses : int
         Frames in a row without the eyes after which the face is searched afresh.
     min_correlation : float

@@ -74,6 +74,15 @@ class Placement:
     light: np.ndarray | None = None
     skinless_ok: bool = False
 
+    @property
+    def light_gain(self) -> float:
+        """How much the light transform stretches the crop's levels (the mean of its channel gains), at least 1:
+        the crop's noise grows by as much (a dim frame brightened shows its sensor noise and its coding steps
+        larger)."""
+        if self.light is None:
+            return 1.0
+        return max(float(np.mean(np.diag(np.asarray(self.light)[:, :3]))), 1.0)
+
     def set_anchors(self, anchors_px: np.ndarray) -> None:
         """New anchors (3, 2), crop pixels, and their eyes' midpoint."""
         self.anchors_px = np.asarray(anchors_px, dtype=float)

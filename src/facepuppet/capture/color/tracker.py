@@ -34,6 +34,7 @@ from facepuppet.capture.color.face import (
     similarity_of_pairs,
 )
 from facepuppet.capture.color.follow import LOST_MEMORY, Follower, FollowState
+from facepuppet.capture.color.glare import without_glare
 from facepuppet.capture.color.head_turn import apply_turn_model, turn_angles, turn_rotation
 from facepuppet.capture.color.jobs import wait_pending
 from facepuppet.capture.color.lids import PATCH_SIZE, apply_lid_model
@@ -228,7 +229,7 @@ class ColorTracker:
         fol, cfg = self._follow, self.config.follow
         result = None
         if fol.frame is not None:
-            result = self.measure(rgb, fol.frame, follow=True, gain=cfg.frame_gain)
+            result = self.measure(rgb, fol.frame, follow=True, gain=cfg.frame_gain / self._place.light_gain)
             fol.misses = 0 if result.eyes_found else fol.misses + 1
             if not fol.still_the_face(result.frame, self._follower.correlation, cfg):
                 result = None
@@ -339,6 +340,7 @@ class ColorTracker:
         crop = cv2.warpAffine(rgb, A, self._size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         if place.light is not None:
             crop = cv2.transform(crop, place.light)
+        crop = without_glare(crop, self._cheek_boxes, self._eye_boxes, px)      # a lens's reflection: unknown
         skin = self._follow.skin = self._skin_ok(crop)
         C = self.intensity(crop)
         eyes = self.eye_centres(C)
