@@ -43,7 +43,7 @@ from facepuppet.capture.color.profile import GENERIC_LAYOUT, Profile, default_pr
 from facepuppet.capture.color.rules import BLOB_PARAMS, BOX_NAMES, move_boxes, outline_features
 from facepuppet.capture.color.shape_models import FAMILIES, apply_shape_models
 from facepuppet.capture.color.smoothing import CurveSmoother
-from facepuppet.capture.color.snakes import LOWER, UPPER, SnakeSolver, snake_fields
+from facepuppet.capture.color.snakes import LOWER, UPPER, SnakeSolver, lip_field, snake_fields
 from facepuppet.capture.color.transform import feature_intensity, lip_hue_table, skin_fraction
 from facepuppet.capture.curves import CURVE_NAMES, POINT_NAMES
 from facepuppet.capture.features import FrameFeatures
@@ -274,7 +274,7 @@ class ColorTracker:
         crop = np.zeros((h, w, 3), np.uint8)
         curves = np.ascontiguousarray(self._layout_px, dtype=np.float64)
         if part == "snakes":
-            self._snakes(curves[_SNAKE_IDX], snake_fields(np.zeros((h, w), np.float32), SNAKE_BLUR))
+            self._snakes(curves[_SNAKE_IDX], snake_fields(lip_field(np.zeros((h, w), np.float32), curves), SNAKE_BLUR))
             return
         C = self.intensity(crop)
         self.eye_centres(C)
@@ -398,7 +398,9 @@ class ColorTracker:
             x0, y0, x1, y1 = max(x0 - m, 0), max(y0 - m, 0), min(x1 + m, w), min(y1 + m, h)
             if x1 - x0 > 2 * m and y1 - y0 > 2 * m:
                 o = np.array([x0, y0], dtype=float)
-                curves_px[idx] = self._snakes(curves_px[idx] - o, snake_fields(C[y0:y1, x0:x1], SNAKE_BLUR)) + o
+                # The opening painted at the lips' level: the snakes see the lips' outline (:func:`.snakes.lip_field`).
+                field = snake_fields(lip_field(C[y0:y1, x0:x1], curves_px - o), SNAKE_BLUR)
+                curves_px[idx] = self._snakes(curves_px[idx] - o, field) + o
         if self._lids:
             # The performer's eyelid model reads the lids off the look of each eye (:mod:`.lids`).
             apply_lid_model(curves_px, crop, self._lids)

@@ -14,7 +14,7 @@ import numpy as np
 
 from facepuppet._util.jit import INNER, KERNEL
 from facepuppet.capture.color.blobs import blob_kernel, label8, open_mask
-from facepuppet.capture.color.rules.kernels import median_of_boxes, mid_shift, quantile, sample_profile
+from facepuppet.capture.color.rules.kernels import median, median_of_boxes, mid_shift, quantile, sample_profile
 from facepuppet.capture.curves import CURVE_NAMES
 
 __all__ = ["mouth_outlines"]
@@ -31,11 +31,16 @@ LIP_HIGH = np.array([0.15, 0.8, 0.15, 0.8])
 MOUTH_NEAR = 0.3           # face units    radius around the layout's mouth centre where the lip blob is preferred
 BLOB_MIN_AREA = 3          # pixels        smallest blob that counts (:func:`~.blobs.blob_kernel`)
 MOUTH_MIN_COLUMNS = 4      # columns       fewest columns of the mouth blob for the lips to be read
-LIP_LEVEL_QUANTILE = 0.75  # quantile      the lips' brightness: this quantile of V over the lip blob
-DARK_FRACTION = 0.5        # fraction      pixels darker than this times the lips' or the skin's V are opening
+LIP_LEVEL_QUANTILE = 0.9   # quantile      the lips' brightness: this quantile of V over the lip blob
+LIP_LEVEL_FLOOR = 0.6      # fraction      least lips' brightness, as a share of the skin's V
+DARK_FRACTION = 0.65       # fraction      pixels darker than this times the lips' or the skin's V are opening
 OPENING_OPEN = 3           # pixels        side of the opening (morphology) that clears specks off the opening
 OPENING_MIN_AREA = 0.004   # face units^2  smallest opening that counts as an open mouth
 OPENING_MIN_WIDTH = 0.1    # face units    narrowest opening that counts as an open mouth
+MOUTH_FOLLOW = 0.3         # face units    farthest the lips' and corners' bounds follow the blob (up, down, sideways)
+LIP_GAP = 0.1              # face units    gap in a column across which a lip part beyond the blob joins it
+LIP_EXTEND = 0.25          # face units    farthest a column's outer lip edge is moved out across such gaps
+OPEN_THICKNESS = 0.8       # fraction      of the layout's lip thickness an open mouth's lips keep at least
 
 
 @nb.njit(**INNER)
@@ -44,8 +49,8 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
     """Top and bottom of the mouth opening per column of the mouth rectangle (the lip crease if closed).
 
     ``value`` is the HSV value V (0..255) of the rectangle, ``skin`` the cheeks' median V. The opening is
-    dark (below half the lips' and the skin's brightness) or left out of the lip blob between its top and
-    bottom; its largest 8-connected part counts if it is big and wide enough.
+    dark (below :data:`DARK_FRACTION` of the lips' brightness, or of the skin's if lower) or left out of the
+    lip blob between its top and bottom; its largest 8-connected part counts if it is big and wide enough.
     """
     h, w = mask.shape
     lips = np.empty(h * w)
@@ -56,7 +61,9 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
                 lips[n] = value[y, x]
                 n += 1
     level = quantile(lips[:n], LIP_LEVEL_QUANTILE) if n else skin
-    thr = DARK_FRACTION * min(level, skin)
+    # A blob that is all opening (pale lips) has the opening's own level: the lips are taken to be at least
+    # LIP_LEVEL_FLOOR of the skin's brightness.
+    thr = DARK_FRACTION * min(max(level, LIP_LEVEL_FLOOR * skin), skin)
     opening = np.zeros((h, w), np.uint8)
     crease = np.empty(w, np.float32)
     for x in range(w):
@@ -101,6 +108,57 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
     return otop, obot
 
 
+@nb.njit(**INNER)
+def _extend(sub: np.ndarray, level: float, cols: np.ndarray, top: np.ndarray, bottom: np.ndarray, gap: int,
+            most: int):
+    """The blob's column profile moved out across short gaps onto lip parts the blob left out.
+
+    A glossy lower lip's highlight or the upper teeth can cut a lip off the blob (the blob then ends at the
+    mouth opening): in each column, a run of pixels above ``level`` that starts within ``gap`` pixels beyond
+    the blob's top (bottom) moves the top (bottom) to the run's far end, at most ``most`` pixels out.
+    Returns the new (top, bottom), (W,) float32.
+    """
+    h, w = sub.shape
+    otop = top.copy()
+    obot = bottom.copy()
+    for x in range(w):
+        if not cols[x]:
+            continue
+        # Downwards from the blob's bottom.
+        y = int(bottom[x])
+        limit = min(int(bottom[x]) + most, h)
+        start = -1
+        for yy in range(y, min(y + gap, limit)):
+            if sub[yy, x] > level:
+                start = yy
+                break
+        if start >= 0:
+            yy = start
+            while yy < limit and sub[yy, x] > level:
+                yy += 1
+            obot[x] = yy
+        # Upwards from the blob's top.
+        y = int(top[x]) - 1
+        limit = max(int(top[x]) - most, 0)
+        start = -1
+        for yy in range(y, max(y - gap, limit - 1), -1):
+            if sub[yy, x] > level:
+                start = yy
+                break
+        if start >= 0:
+            yy = start
+            while yy >= limit and sub[yy, x] > level:
+                yy -= 1
+            otop[x] = yy + 1
+    return otop, obot
+
+
+@nb.njit(**INNER)
+def _mid_y(ctrl: np.ndarray) -> float:
+    """y of a curve's middle, B(1/2)."""
+    return 0.125 * (ctrl[0, 1] + ctrl[3, 1]) + 0.375 * (ctrl[1, 1] + ctrl[2, 1])
+
+
 @nb.njit(**KERNEL)
 def mouth_outlines(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset: np.ndarray, out: np.ndarray,
                    boxes: np.ndarray, params: np.ndarray, unit: float, reach: float) -> None:
@@ -127,14 +185,31 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset:
     xs = np.nonzero(cols)[0]
     if len(xs) < MOUTH_MIN_COLUMNS:
         return
+    # The mouth's height on the face differs between people: the bounds of the upper lips and the corners
+    # follow the blob's upper edge (the upper lip moves least with the expressions) at the layout's middle
+    # columns, within MOUTH_FOLLOW.
+    xc = int(0.5 * (lay[uo, 0, 0] + lay[uo, 3, 0])) - x0
+    half = max(int(0.1 * unit), 1)
+    n_top = 0
+    tops = np.empty(2 * half + 1)
+    for x in range(max(xc - half, 0), min(xc + half + 1, len(cols))):
+        if cols[x]:
+            tops[n_top] = top[x] + y0
+            n_top += 1
+    dy = 0.0
+    if n_top:
+        dy = min(max(median(tops[:n_top]) - _mid_y(lay[uo]), -MOUTH_FOLLOW * unit), MOUTH_FOLLOW * unit)
     lx_l, lx_r = lay[uo, 0, 0], lay[uo, 3, 0]
     ly_l, ly_r = lay[uo, 0, 1], lay[uo, 3, 1]
     b = reach * unit
-    xl = min(max(xs[0] + x0, lx_l - b), lx_l + b)
-    xr = min(max(xs[-1] + 1 + x0, lx_r - b), lx_r + b)
+    # Sideways too (the mouth slides across the face frame when the head turns): the corners' bounds follow
+    # the blob's middle.
+    dx = min(max(0.5 * (xs[0] + xs[-1] + 1) + x0 - 0.5 * (lx_l + lx_r), -MOUTH_FOLLOW * unit), MOUTH_FOLLOW * unit)
+    xl = min(max(xs[0] + x0, lx_l + dx - b), lx_l + dx + b)
+    xr = min(max(xs[-1] + 1 + x0, lx_r + dx - b), lx_r + dx + b)
     mid = (top + bottom) / 2.0 + y0
-    yl = min(max(mid[xs[0]:xs[0] + 3].mean(), ly_l - b), ly_l + b)
-    yr = min(max(mid[max(xs[-1] - 2, 0):xs[-1] + 1].mean(), ly_r - b), ly_r + b)
+    yl = min(max(mid[xs[0]:xs[0] + 3].mean(), ly_l + dy - b), ly_l + dy + b)
+    yr = min(max(mid[max(xs[-1] - 2, 0):xs[-1] + 1].mean(), ly_r + dy - b), ly_r + dy + b)
     for c in _LIPS:
         l0, l1 = lay[c, 0, 0], lay[c, 3, 0]
         # Each curve keeps its end offsets from the outer corners (inner lip ends lie inside the mouth).
@@ -145,20 +220,35 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset:
         out[c, 3, 1] = yr + (lay[c, 3, 1] - ly_r)
     skin = median_of_boxes(value, boxes[5:7])
     itop, ibot = _opening(mask, cols, top, bottom, value[y0:y1, x0:x1], skin, unit)
-    # Outer lips: the blob's outline; inner lips: the opening inside it (bounds: fraction of the unit).
+    etop, ebot = _extend(sub, params[1], cols, top, bottom, int(LIP_GAP * unit + 0.5), int(LIP_EXTEND * unit + 0.5))
+    # Outer lips: the blob's outline, moved out across gaps; inner lips: the opening inside it.
     profiles = np.empty((4, len(top)), np.float32)
     for x in range(len(top)):
-        profiles[0, x], profiles[1, x], profiles[2, x], profiles[3, x] = top[x], bottom[x], itop[x], ibot[x]
+        profiles[0, x], profiles[1, x], profiles[2, x], profiles[3, x] = etop[x], ebot[x], itop[x], ibot[x]
     for i in range(4):
         c = _LIPS[i]
         ok, y = sample_profile(out[c], cols, profiles[i] + y0, x0)
         if ok:
             d = mid_shift(out[c], y)
+            centre = dy if c == uo or c == ui else 0.0
             for j in (1, 2):
-                lo_b, hi_b = lay[c, j, 1] + LIP_LOW[i] * unit, lay[c, j, 1] + LIP_HIGH[i] * unit
+                lo_b, hi_b = lay[c, j, 1] + centre + LIP_LOW[i] * unit, lay[c, j, 1] + centre + LIP_HIGH[i] * unit
                 out[c, j, 1] = min(max(out[c, j, 1] + d, lo_b), hi_b)
     for j in (1, 2):
         out[ui, j, 1] = min(max(out[ui, j, 1], out[uo, j, 1]), out[lo, j, 1])
         out[li, j, 1] = min(max(out[li, j, 1], out[ui, j, 1]), out[lo, j, 1])
         # The lower lip keeps at least the layout's thickness (a pale lower lip leaves the blob short of it).
         out[lo, j, 1] = max(out[lo, j, 1], out[li, j, 1] + lay[lo, j, 1] - lay[li, j, 1])
+    # An open mouth's lips keep most of their thickness: where the blob is the dark opening itself (lips
+    # paler than the opening in C), the outer lips lie beyond the inner ones by the lips, not on them.
+    gap = _mid_y(out[li]) - _mid_y(out[ui])
+    if gap > OPENING_MIN_WIDTH * unit:
+        tu = OPEN_THICKNESS * (_mid_y(lay[ui]) - _mid_y(lay[uo]))
+        tl = OPEN_THICKNESS * (_mid_y(lay[lo]) - _mid_y(lay[li]))
+        du = _mid_y(out[ui]) - tu - _mid_y(out[uo])
+        dl = _mid_y(out[li]) + tl - _mid_y(out[lo])
+        for j in (1, 2):
+            if du < 0:
+                out[uo, j, 1] += du / 0.75
+            if dl > 0:
+                out[lo, j, 1] += dl / 0.75
