@@ -38,6 +38,7 @@ OPENING_OPEN = 3           # pixels        side of the opening (morphology) that
 OPENING_MIN_AREA = 0.004   # face units^2  smallest opening that counts as an open mouth
 OPENING_MIN_WIDTH = 0.1    # face units    narrowest opening that counts as an open mouth
 MOUTH_FOLLOW = 0.3         # face units    farthest the lips' and corners' bounds follow the blob (up, down, sideways)
+FOLLOW_SPAN = 0.6          # fraction      of the layout's mouth width the blob must span for the bounds to follow it
 LIP_GAP = 0.1              # face units    gap in a column across which a lip part beyond the blob joins it
 LIP_EXTEND = 0.25          # face units    farthest a column's outer lip edge is moved out across such gaps
 OPEN_THICKNESS = 0.8       # fraction      of the layout's lip thickness an open mouth's lips keep at least
@@ -188,7 +189,12 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset:
     # The mouth's height on the face differs between people: the bounds of the upper lips and the corners
     # follow the blob's upper edge (the upper lip moves least with the expressions) at the layout's middle
     # columns, within MOUTH_FOLLOW.
-    xc = int(0.5 * (lay[uo, 0, 0] + lay[uo, 3, 0])) - x0
+    # A blob much narrower than the mouth is a part of it (a corner's shadow, a moustache's tip, a greyscale
+    # face's crease): where it lies says nothing of where the mouth is, and the bounds stay the layout's.
+    lx_l, lx_r = lay[uo, 0, 0], lay[uo, 3, 0]
+    ly_l, ly_r = lay[uo, 0, 1], lay[uo, 3, 1]
+    spans = xs[-1] + 1 - xs[0] >= FOLLOW_SPAN * (lx_r - lx_l)
+    xc = int(0.5 * (lx_l + lx_r)) - x0
     half = max(int(0.1 * unit), 1)
     n_top = 0
     tops = np.empty(2 * half + 1)
@@ -197,14 +203,15 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset:
             tops[n_top] = top[x] + y0
             n_top += 1
     dy = 0.0
-    if n_top:
+    if n_top and spans:
         dy = min(max(median(tops[:n_top]) - _mid_y(lay[uo]), -MOUTH_FOLLOW * unit), MOUTH_FOLLOW * unit)
-    lx_l, lx_r = lay[uo, 0, 0], lay[uo, 3, 0]
-    ly_l, ly_r = lay[uo, 0, 1], lay[uo, 3, 1]
     b = reach * unit
     # Sideways too (the mouth slides across the face frame when the head turns): the corners' bounds follow
     # the blob's middle.
-    dx = min(max(0.5 * (xs[0] + xs[-1] + 1) + x0 - 0.5 * (lx_l + lx_r), -MOUTH_FOLLOW * unit), MOUTH_FOLLOW * unit)
+    dx = 0.0
+    if spans:
+        dx = min(max(0.5 * (xs[0] + xs[-1] + 1) + x0 - 0.5 * (lx_l + lx_r), -MOUTH_FOLLOW * unit),
+                 MOUTH_FOLLOW * unit)
     xl = min(max(xs[0] + x0, lx_l + dx - b), lx_l + dx + b)
     xr = min(max(xs[-1] + 1 + x0, lx_r + dx - b), lx_r + dx + b)
     mid = (top + bottom) / 2.0 + y0
