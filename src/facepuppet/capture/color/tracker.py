@@ -388,7 +388,7 @@ class ColorTracker:
         it = self._intensity
         curves_px = outline_features(C, raw=it.raw, value=it.value, layout=layout, boxes=boxes,
                                      blob_params=BLOB_PARAMS, unit=unit, mouth_reach=float(self.profile.mouth_reach),
-                                     mouth_offset=self._place.mouth_offset, parts=self._parts)
+                                     mouth_offset=self._place.mouth_offset, parts=self._parts, rgb=crop)
         idx = _SNAKE_IDX
         if len(idx) and "mouth" in self._parts:
             # The snakes see the mouth rectangle and a margin (the fields are only computed there).

@@ -42,16 +42,22 @@ FOLLOW_SPAN = 0.6          # fraction      of the layout's mouth width the blob 
 LIP_GAP = 0.1              # face units    gap in a column across which a lip part beyond the blob joins it
 LIP_EXTEND = 0.25          # face units    farthest a column's outer lip edge is moved out across such gaps
 OPEN_THICKNESS = 0.8       # fraction      of the layout's lip thickness an open mouth's lips keep at least
+TEETH_LEVEL = 0.9          # fraction      pixels brighter than this times the skin's V just beyond the blob are teeth
+TEETH_SATURATION = 0.65    # fraction      teeth are less saturated than this times the skin's saturation
+TEETH_GAP = 0.05           # face units    farthest beyond the blob such a run may start (the blob's blurred edge)
+TEETH_MAX = 0.2            # face units    tallest run of teeth the opening takes in above or below the blob
 
 
 @nb.njit(**INNER)
 def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.ndarray, value: np.ndarray,
-             skin: float, unit: float):
+             sat: np.ndarray, skin: float, sat_max: float, unit: float):
     """Top and bottom of the mouth opening per column of the mouth rectangle (the lip crease if closed).
 
-    ``value`` is the HSV value V (0..255) of the rectangle, ``skin`` the cheeks' median V. The opening is
-    dark (below :data:`DARK_FRACTION` of the lips' brightness, or of the skin's if lower) or left out of the
-    lip blob between its top and bottom; its largest 8-connected part counts if it is big and wide enough.
+    ``value`` is the HSV value V (0..255) of the rectangle, ``sat`` its saturation (0..1), ``skin`` the cheeks'
+    median V. The opening is dark (below :data:`DARK_FRACTION` of the lips' brightness, or of the skin's if
+    lower), left out of the lip blob between its top and bottom, or teeth just beyond the blob (brighter than
+    the skin and less saturated than ``sat_max``); its largest 8-connected part counts if it is big and wide
+    enough, with the parts stacked above and below it.
     """
     h, w = mask.shape
     lips = np.empty(h * w)
@@ -67,6 +73,9 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
     thr = DARK_FRACTION * min(max(level, LIP_LEVEL_FLOOR * skin), skin)
     opening = np.zeros((h, w), np.uint8)
     crease = np.empty(w, np.float32)
+    teeth = TEETH_LEVEL * skin
+    most = int(TEETH_MAX * unit + 0.5)
+    edge = int(TEETH_GAP * unit + 0.5)
     for x in range(w):
         best = np.inf
         arg = -1
@@ -78,6 +87,14 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
                     best = value[y, x]
                     arg = y
         crease[x] = arg + 0.5 if arg >= 0 else (top[x] + bottom[x]) / 2.0
+        if cols[x]:
+            # Teeth just beyond the blob (a pale lip left out of it): the opening reaches the lip past them.
+            for step in (-1, 1):
+                start = int(top[x]) - 1 if step < 0 else int(bottom[x])
+                end = _teeth_end(value[:, x], sat[:, x], start, step, teeth, sat_max, edge, most)
+                if end >= 0:
+                    for y in range(min(start, end), max(start, end) + 1):
+                        opening[y, x] = 1
     opening = open_mask(opening, OPENING_OPEN)
     labels, count = label8(opening)
     if count < 2:
@@ -95,18 +112,59 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
     k = 1 + np.argmax(area[1:])
     if area[k] < OPENING_MIN_AREA * unit * unit or xmax[k] - xmin[k] + 1 < OPENING_MIN_WIDTH * unit:
         return crease, crease.copy()
+    # Parts of the opening that a tongue (lip-coloured) or a band of teeth splits apart lie above and below
+    # each other: every large enough part across the same columns as the largest is the opening too.
+    take = np.zeros(count, np.bool_)
+    for j in range(1, count):
+        overlap = min(xmax[j], xmax[k]) - max(xmin[j], xmin[k]) + 1
+        take[j] = j == k or (area[j] >= OPENING_MIN_AREA * unit * unit
+                             and overlap >= 0.5 * min(xmax[j] - xmin[j] + 1, xmax[k] - xmin[k] + 1))
     otop = crease.copy()
     obot = crease.copy()
     for x in range(w):
         for y in range(h):
-            if labels[y, x] == k:
+            if labels[y, x] > 0 and take[labels[y, x]]:
                 otop[x] = y
                 break
         for y in range(h - 1, -1, -1):
-            if labels[y, x] == k:
+            if labels[y, x] > 0 and take[labels[y, x]]:
                 obot[x] = y + 1
                 break
     return otop, obot
+
+
+@nb.njit(**INNER)
+def _saturation(rgb: np.ndarray, x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
+    """HSV saturation (0..1) of the rectangle (x0, y0, x1, y1) of ``rgb`` (H, W, 3) uint8, (y1 - y0, x1 - x0)."""
+    out = np.zeros((max(y1 - y0, 0), max(x1 - x0, 0)), np.float32)
+    for y in range(y0, y1):
+        for x in range(x0, x1):
+            r, g, b = np.int64(rgb[y, x, 0]), np.int64(rgb[y, x, 1]), np.int64(rgb[y, x, 2])
+            hi = max(r, g, b)
+            out[y - y0, x - x0] = (hi - min(r, g, b)) / hi if hi > 0 else 0.0
+    return out
+
+
+@nb.njit(**INNER)
+def _teeth_end(column: np.ndarray, sat: np.ndarray, start: int, step: int, level: float, sat_max: float, gap: int,
+               most: int) -> int:
+    """The last pixel of a run of teeth from ``start`` going ``step`` (-1 up, 1 down): pixels brighter than
+    ``level`` and less saturated than ``sat_max`` (``column`` V, ``sat`` saturation), starting within ``gap``
+    pixels (the blob's blurred edge), ended within ``most`` pixels by another pixel (the lip) inside the column;
+    -1 if there is no such run."""
+    y = start
+    for _ in range(gap):
+        if 0 <= y < len(column) and not (column[y] > level and sat[y] < sat_max):
+            y += step
+    if not 0 <= y < len(column) or not (column[y] > level and sat[y] < sat_max):
+        return -1
+    n = 0
+    while 0 <= y < len(column) and column[y] > level and sat[y] < sat_max and n <= most:
+        y += step
+        n += 1
+    if n == 0 or n > most or not 0 <= y < len(column):
+        return -1
+    return y - step
 
 
 @nb.njit(**INNER)
@@ -161,12 +219,12 @@ def _mid_y(ctrl: np.ndarray) -> float:
 
 
 @nb.njit(**KERNEL)
-def mouth_outlines(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset: np.ndarray, out: np.ndarray,
-                   boxes: np.ndarray, params: np.ndarray, unit: float, reach: float) -> None:
+def mouth_outlines(C: np.ndarray, value: np.ndarray, rgb: np.ndarray, layout: np.ndarray, offset: np.ndarray,
+                   out: np.ndarray, boxes: np.ndarray, params: np.ndarray, unit: float, reach: float) -> None:
     """Lips from the mouth blob (§3.2, Fig. 3): corners and outer lips from its outline, inner lips from the
-    mouth opening inside it, written into ``out`` (C, 4, 2). ``boxes``: the rectangles in
-    :data:`~.outline.BOX_NAMES` order (the mouth is row 4, the cheeks rows 5 and 6). ``offset`` (2,) moves the layout's
-    lips (where the mouth was seen at acquisition);
+    mouth opening inside it, written into ``out`` (C, 4, 2). ``rgb`` (H, W, 3) uint8 is the crop. ``boxes``: the
+    rectangles in :data:`~.outline.BOX_NAMES` order (the mouth is row 4, the cheeks rows 5 and 6). ``offset`` (2,)
+    moves the layout's lips (where the mouth was seen at acquisition);
     the corners stay within ``reach`` face units of the layout's.
     """
     x0, y0, x1, y1 = boxes[4]
@@ -187,20 +245,31 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset:
     if len(xs) < MOUTH_MIN_COLUMNS:
         return
     # The mouth's height on the face differs between people: the bounds of the upper lips and the corners
-    # follow the blob's upper edge (the upper lip moves least with the expressions) at the layout's middle
-    # columns, within MOUTH_FOLLOW.
+    # follow the mouth's upper edge (the blob's, or the opening's where teeth put it higher; the upper lip
+    # moves least with the expressions) at the layout's middle columns, within MOUTH_FOLLOW.
     # A blob much narrower than the mouth is a part of it (a corner's shadow, a moustache's tip, a greyscale
     # face's crease): where it lies says nothing of where the mouth is, and the bounds stay the layout's.
     lx_l, lx_r = lay[uo, 0, 0], lay[uo, 3, 0]
     ly_l, ly_r = lay[uo, 0, 1], lay[uo, 3, 1]
     spans = xs[-1] + 1 - xs[0] >= FOLLOW_SPAN * (lx_r - lx_l)
+    skin = median_of_boxes(value, boxes[5:7])
+    # Teeth are the mouth's unsaturated pixels: on a face whose skin is grey itself (a greyscale picture) there
+    # is no telling them from the skin, and no teeth are taken.
+    cheeks = np.empty(2)
+    for i in range(2):
+        bx0, by0, bx1, by1 = boxes[5 + i]
+        cs = _saturation(rgb, bx0, by0, bx1, by1)
+        cheeks[i] = median(cs.ravel()) if cs.size else 0.0
+    sat_max = TEETH_SATURATION * median(cheeks)
+    itop, ibot = _opening(mask, cols, top, bottom, value[y0:y1, x0:x1], _saturation(rgb, x0, y0, x1, y1), skin,
+                          sat_max, unit)
     xc = int(0.5 * (lx_l + lx_r)) - x0
     half = max(int(0.1 * unit), 1)
     n_top = 0
     tops = np.empty(2 * half + 1)
     for x in range(max(xc - half, 0), min(xc + half + 1, len(cols))):
         if cols[x]:
-            tops[n_top] = top[x] + y0
+            tops[n_top] = min(top[x], itop[x]) + y0
             n_top += 1
     dy = 0.0
     if n_top and spans:
@@ -225,8 +294,6 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset:
             out[c, j, 0] = a0 + (lay[c, j, 0] - l0) * (a1 - a0) / max(l1 - l0, 1e-6)
         out[c, 0, 1] = yl + (lay[c, 0, 1] - ly_l)
         out[c, 3, 1] = yr + (lay[c, 3, 1] - ly_r)
-    skin = median_of_boxes(value, boxes[5:7])
-    itop, ibot = _opening(mask, cols, top, bottom, value[y0:y1, x0:x1], skin, unit)
     etop, ebot = _extend(sub, params[1], cols, top, bottom, int(LIP_GAP * unit + 0.5), int(LIP_EXTEND * unit + 0.5))
     # Outer lips: the blob's outline, moved out across gaps; inner lips: the opening inside it.
     profiles = np.empty((4, len(top)), np.float32)
@@ -242,7 +309,9 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset:
                 lo_b, hi_b = lay[c, j, 1] + centre + LIP_LOW[i] * unit, lay[c, j, 1] + centre + LIP_HIGH[i] * unit
                 out[c, j, 1] = min(max(out[c, j, 1] + d, lo_b), hi_b)
     for j in (1, 2):
-        out[ui, j, 1] = min(max(out[ui, j, 1], out[uo, j, 1]), out[lo, j, 1])
+        # The outer upper lip lies above the opening (the blob may be the opening alone, its lips pale).
+        out[uo, j, 1] = min(out[uo, j, 1], out[ui, j, 1])
+        out[ui, j, 1] = min(out[ui, j, 1], out[lo, j, 1])
         out[li, j, 1] = min(max(out[li, j, 1], out[ui, j, 1]), out[lo, j, 1])
         # The lower lip keeps at least the layout's thickness (a pale lower lip leaves the blob short of it).
         out[lo, j, 1] = max(out[lo, j, 1], out[li, j, 1] + lay[lo, j, 1] - lay[li, j, 1])

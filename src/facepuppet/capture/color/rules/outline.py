@@ -41,7 +41,7 @@ OUTLINE_PARTS = ("eyes", "brows", "mouth")
 
 def outline_features(C: np.ndarray, *, raw: np.ndarray, value: np.ndarray, layout: np.ndarray, boxes: np.ndarray,
                      blob_params: np.ndarray, unit: float, mouth_reach: float, mouth_offset: np.ndarray | None = None,
-                     parts: tuple[str, ...] = OUTLINE_PARTS) -> np.ndarray:
+                     parts: tuple[str, ...] = OUTLINE_PARTS, rgb: np.ndarray | None = None) -> np.ndarray:
     """The layout moved onto each feature's blob, within plausible bounds (§3.2).
 
     Each part is one compiled kernel called from here (:mod:`.eyes`, :mod:`.brows`, :mod:`.mouth`): numba
@@ -69,6 +69,8 @@ def outline_features(C: np.ndarray, *, raw: np.ndarray, value: np.ndarray, layou
         Crop pixels the mouth sits off the layout (default none).
     parts : tuple of str
         Which of :data:`OUTLINE_PARTS` to read (all by default); the others keep the layout's curves.
+    rgb : (H, W, 3) uint8, optional
+        The crop itself (the mouth tells teeth by their low saturation); without it, no teeth are taken.
 
     Returns
     -------
@@ -87,7 +89,9 @@ def outline_features(C: np.ndarray, *, raw: np.ndarray, value: np.ndarray, layou
         brow_outlines(raw, layout, out, boxes, blob_params[1], unit)
         brow_edges(value, layout, out, boxes, unit)
     if "mouth" in parts:
-        mouth_outlines(C, value, layout, mouth_offset, out, boxes, blob_params[2], unit, mouth_reach)
+        if rgb is None:
+            rgb = np.zeros(C.shape + (3,), np.uint8)
+        mouth_outlines(C, value, rgb, layout, mouth_offset, out, boxes, blob_params[2], unit, mouth_reach)
     return out
 
 
