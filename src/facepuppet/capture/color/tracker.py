@@ -357,7 +357,7 @@ class ColorTracker:
         a, b, tx, ty = corr.tolist()
         S_px = np.array([[a, -b, tx], [b, a, ty]])
         scale = float(np.hypot(a, b))
-        place.shift = S_px[:, 2] + (S_px[:, :2] - _EYE2) @ place.anchor_mid
+        place.shift, place.scale = S_px[:, 2] + (S_px[:, :2] - _EYE2) @ place.anchor_mid, scale
         self._last_measured = (C, S_px)
         boxes = self._boxes_now()
         # How much the crop looks like a face: needed to pick among candidates (a followed face is judged by
@@ -457,9 +457,9 @@ class ColorTracker:
 
     def _boxes_now(self) -> np.ndarray:
         """The feature rectangles (len(BOX_NAMES), 4) of this frame: moved with the layout's eyes (translation
-        only; the mouth also by its offset), clipped to the crop. The cheeks stay where the frame puts them."""
+        only; the mouth also by its offset and scaled with the eyes), clipped to the crop. The cheeks stay where the frame puts them."""
         return move_boxes(self._box_table, _SHIFTED, _MOUTH_BOX, self._place.shift, self._place.mouth_offset,
-                          *self._size)
+                          self._place.scale, self._place.anchor_mid, *self._size)
 
     def _acquire(self, rgb: np.ndarray, last: FaceFrame | None = None) -> Measurement | None:
         """Find the face afresh (:meth:`~.acquire.Acquirer.find`), the filters and the alignment restarted."""

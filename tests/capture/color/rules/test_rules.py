@@ -175,12 +175,17 @@ def test_snake_fields_are_opencvs_blur_and_central_differences():
         assert np.allclose(snake_fields(img, blur), ref, atol=1e-6)
 
 
-def test_move_boxes_rounds_shifts_and_clips_to_the_crop():
+def test_move_boxes_rounds_shifts_scales_the_mouth_and_clips_to_the_crop():
     from facepuppet.capture.color.rules import move_boxes
 
     boxes = np.array([[10, 10, 20, 20], [0, 0, 5, 5], [90, 40, 100, 50]], dtype=np.int64)
-    out = move_boxes(boxes, np.array([True, False, True]), 2, np.array([2.4, -1.6]), np.array([0.3, 0.2]), 96, 48)
+    moved = np.array([True, False, True])
+    out = move_boxes(boxes, moved, 2, np.array([2.4, -1.6]), np.array([0.3, 0.2]), 1.0, np.zeros(2), 96, 48)
     assert out.tolist() == [[12, 8, 22, 18], [0, 0, 5, 5], [93, 39, 96, 48]]
+    # The mouth box scaled 1.5 about the eyes' midpoint (50, 10), then moved: only the mouth's size changes.
+    boxes[2] = (40, 20, 60, 30)
+    out = move_boxes(boxes, moved, 2, np.array([2.4, -1.6]), np.array([0.3, 0.2]), 1.5, np.array([50.0, 10.0]), 96, 48)
+    assert out.tolist() == [[12, 8, 22, 18], [0, 0, 5, 5], [38, 24, 68, 39]]
 
 
 def test_two_point_similarity_is_the_least_squares_one():

@@ -97,10 +97,13 @@ def outline_features(C: np.ndarray, *, raw: np.ndarray, value: np.ndarray, layou
 
 @nb.njit(**KERNEL)
 def move_boxes(boxes: np.ndarray, moved: np.ndarray, mouth: int, shift: np.ndarray, mouth_offset: np.ndarray,
-               w: int, h: int) -> np.ndarray:
+               scale: float, centre: np.ndarray, w: int, h: int) -> np.ndarray:
     """Rectangles (N, 4) of a frame: the ``moved`` ones by ``shift`` (the mouth, row ``mouth``, also by
-    ``mouth_offset``), each rounded to whole pixels, then clipped to the crop (w, h)."""
+    ``mouth_offset``, and enlarged by ``scale`` if above 1 about ``centre`` (2,), the eyes' midpoint: an open
+    jaw reaches as far in face units on a face the eyes found larger; a smaller face keeps the box's room to
+    spare), each rounded to whole pixels, then clipped to the crop (w, h)."""
     out = boxes.copy()
+    scale = max(scale, 1.0)
     for k in range(len(boxes)):
         if not moved[k]:
             continue
@@ -108,6 +111,11 @@ def move_boxes(boxes: np.ndarray, moved: np.ndarray, mouth: int, shift: np.ndarr
         if k == mouth:
             dx += mouth_offset[0]
             dy += mouth_offset[1]
+            for j in range(2):                  # x, then y
+                d = dx if j == 0 else dy
+                for i in (j, j + 2):
+                    out[k, i] = np.int64(np.round(centre[j] + scale * (boxes[k, i] - centre[j]) + d))
+            continue
         ix, iy = np.int64(np.round(dx)), np.int64(np.round(dy))
         out[k, 0] += ix
         out[k, 2] += ix
