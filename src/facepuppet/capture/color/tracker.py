@@ -456,8 +456,8 @@ class ColorTracker:
         return generic is not None and skin_fraction(crop, self._cheek_boxes, generic) > SKIN_CHEEKS
 
     def _boxes_now(self) -> np.ndarray:
-        """The feature rectangles (len(BOX_NAMES), 4) of this frame: moved with the layout's eyes (translation
-        only; the mouth also by its offset and scaled with the eyes), clipped to the crop. The cheeks stay where the frame puts them."""
+        """The feature rectangles (len(BOX_NAMES), 4) of this frame: moved with the layout's eyes (the mouth also
+        by its offset, and grown with the eyes), clipped to the crop. The cheeks stay where the frame puts them."""
         return move_boxes(self._box_table, _SHIFTED, _MOUTH_BOX, self._place.shift, self._place.mouth_offset,
                           self._place.scale, self._place.anchor_mid, *self._size)
 
