@@ -44,8 +44,8 @@ LIP_EXTEND = 0.25          # face units    farthest a column's outer lip edge is
 OPEN_THICKNESS = 0.8       # fraction      of the layout's lip thickness an open mouth's lips keep at least
 TEETH_LEVEL = 0.9          # fraction      pixels brighter than this times the skin's V just beyond the blob are teeth
 TEETH_SATURATION = 0.65    # fraction      teeth are less saturated than this times the skin's saturation
-TEETH_GAP = 0.05           # face units    farthest beyond the blob such a run may start (the blob's blurred edge)
-TEETH_MAX = 0.2            # face units    tallest run of teeth the opening takes in above or below the blob
+TEETH_GAP = 0.1            # face units    farthest beyond the blob such a run may start (the blob's blurred edge)
+TEETH_MAX = 0.3            # face units    tallest run of teeth the opening takes in above or below the blob
 
 
 @nb.njit(**INNER)
