@@ -42,6 +42,7 @@ FOLLOW_SPAN = 0.6          # fraction      of the layout's mouth width the blob 
 LIP_GAP = 0.1              # face units    gap in a column across which a lip part beyond the blob joins it
 LIP_EXTEND = 0.25          # face units    farthest a column's outer lip edge is moved out across such gaps
 OPEN_THICKNESS = 0.8       # fraction      of the layout's lip thickness an open mouth's lips keep at least
+HAIR_MIN = 0.04            # face units    least height of a dark run at the blob's top (hair) and of the lip below it
 TEETH_LEVEL = 0.9          # fraction      pixels brighter than this times the skin's V just beyond the blob are teeth
 TEETH_SATURATION = 0.65    # fraction      teeth are less saturated than this times the skin's saturation
 TEETH_GAP = 0.1            # face units    farthest beyond the blob such a run may start (the blob's blurred edge)
@@ -51,7 +52,9 @@ TEETH_MAX = 0.3            # face units    tallest run of teeth the opening take
 @nb.njit(**INNER)
 def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.ndarray, value: np.ndarray,
              sat: np.ndarray, skin: float, sat_max: float, unit: float):
-    """Top and bottom of the mouth opening per column of the mouth rectangle (the lip crease if closed).
+    """Top and bottom of the mouth opening per column of the mouth rectangle (the lip crease if closed), and
+    where the lips start at the top (below hair over the upper lip; else the blob's top), and whether each
+    column holds lip (not only dark pixels).
 
     ``value`` is the HSV value V (0..255) of the rectangle, ``sat`` its saturation (0..1), ``skin`` the cheeks'
     median V. The opening is dark (below :data:`DARK_FRACTION` of the lips' brightness, or of the skin's if
@@ -73,21 +76,46 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
     thr = DARK_FRACTION * min(max(level, LIP_LEVEL_FLOOR * skin), skin)
     opening = np.zeros((h, w), np.uint8)
     crease = np.empty(w, np.float32)
+    # Hair above the lips (a moustache) is dark as the opening and joins the lip blob at its top: a dark run at
+    # the blob's top with lip below it and more blob below that is not the opening, and the lips start under it.
     teeth = TEETH_LEVEL * skin
     most = int(TEETH_MAX * unit + 0.5)
     edge = int(TEETH_GAP * unit + 0.5)
+    lip_top = top.copy()
+    lit = np.zeros(w, np.bool_)
+    hair_min = max(int(HAIR_MIN * unit + 0.5), 1)
+    for x in range(w):
+        if not cols[x]:
+            continue
+        n_lit = 0
+        for y in range(h):
+            if mask[y, x] and value[y, x] >= thr:
+                n_lit += 1
+        lit[x] = n_lit >= hair_min
+        y = int(top[x])
+        if y < bottom[x] and value[y, x] >= thr:
+            y += 1                                   # the blob's blurred edge
+        start = y
+        while y < bottom[x] and mask[y, x] and value[y, x] < thr:
+            y += 1
+        end = y
+        while y < bottom[x] and mask[y, x] and value[y, x] >= thr:
+            y += 1
+        if end - start >= hair_min and y - end >= hair_min and y < bottom[x] - 1 and \
+                _teeth_end(value[:, x], sat[:, x], int(top[x]) - 1, -1, teeth, sat_max, edge, most) < 0:
+            lip_top[x] = end                         # (teeth above the dark run: it is the opening)
     for x in range(w):
         best = np.inf
         arg = -1
         for y in range(h):
-            if cols[x] and top[x] + 1 <= y < bottom[x] - 1:
+            if cols[x] and lip_top[x] + 1 <= y < bottom[x] - 1:
                 if value[y, x] < thr or not mask[y, x]:
                     opening[y, x] = 1
                 if value[y, x] < best:
                     best = value[y, x]
                     arg = y
-        crease[x] = arg + 0.5 if arg >= 0 else (top[x] + bottom[x]) / 2.0
-        if cols[x]:
+        crease[x] = arg + 0.5 if arg >= 0 else (lip_top[x] + bottom[x]) / 2.0
+        if cols[x] and lip_top[x] == top[x]:
             # Teeth just beyond the blob (a pale lip left out of it): the opening reaches the lip past them.
             for step in (-1, 1):
                 start = int(top[x]) - 1 if step < 0 else int(bottom[x])
@@ -98,7 +126,7 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
     opening = open_mask(opening, OPENING_OPEN)
     labels, count = label8(opening)
     if count < 2:
-        return crease, crease.copy()
+        return crease, crease.copy(), lip_top, lit
     area = np.zeros(count, np.int64)
     xmin = np.full(count, w)
     xmax = np.full(count, -1)
@@ -111,7 +139,7 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
                 xmax[k] = max(xmax[k], x)
     k = 1 + np.argmax(area[1:])
     if area[k] < OPENING_MIN_AREA * unit * unit or xmax[k] - xmin[k] + 1 < OPENING_MIN_WIDTH * unit:
-        return crease, crease.copy()
+        return crease, crease.copy(), lip_top, lit
     # Parts of the opening that a tongue (lip-coloured) or a band of teeth splits apart lie above and below
     # each other: every large enough part across the same columns as the largest is the opening too.
     take = np.zeros(count, np.bool_)
@@ -130,7 +158,7 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
             if labels[y, x] > 0 and take[labels[y, x]]:
                 obot[x] = y + 1
                 break
-    return otop, obot
+    return otop, obot, lip_top, lit
 
 
 @nb.njit(**INNER)
@@ -168,8 +196,8 @@ def _teeth_end(column: np.ndarray, sat: np.ndarray, start: int, step: int, level
 
 
 @nb.njit(**INNER)
-def _extend(sub: np.ndarray, level: float, cols: np.ndarray, top: np.ndarray, bottom: np.ndarray, gap: int,
-            most: int):
+def _extend(sub: np.ndarray, level: float, cols: np.ndarray, top: np.ndarray, bottom: np.ndarray, hair: np.ndarray,
+            gap: int, most: int):
     """The blob's column profile moved out across short gaps onto lip parts the blob left out.
 
     A glossy lower lip's highlight or the upper teeth can cut a lip off the blob (the blob then ends at the
@@ -196,7 +224,9 @@ def _extend(sub: np.ndarray, level: float, cols: np.ndarray, top: np.ndarray, bo
             while yy < limit and sub[yy, x] > level:
                 yy += 1
             obot[x] = yy
-        # Upwards from the blob's top.
+        # Upwards from the blob's top (not over hair, ``hair`` (W,) bool).
+        if hair[x]:
+            continue
         y = int(top[x]) - 1
         limit = max(int(top[x]) - most, 0)
         start = -1
@@ -261,8 +291,15 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, rgb: np.ndarray, layout: np
         cs = _saturation(rgb, bx0, by0, bx1, by1)
         cheeks[i] = median(cs.ravel()) if cs.size else 0.0
     sat_max = TEETH_SATURATION * median(cheeks)
-    itop, ibot = _opening(mask, cols, top, bottom, value[y0:y1, x0:x1], _saturation(rgb, x0, y0, x1, y1), skin,
-                          sat_max, unit)
+    itop, ibot, ltop, lit = _opening(mask, cols, top, bottom, value[y0:y1, x0:x1],
+                                     _saturation(rgb, x0, y0, x1, y1), skin, sat_max, unit)
+    hair = ltop > top
+    top = ltop
+    if hair.sum() >= MOUTH_MIN_COLUMNS:
+        # A moustache reaches past the mouth's corners: the corners lie at the last columns holding lip.
+        lips_at = np.nonzero(cols & lit)[0]
+        if len(lips_at) >= MOUTH_MIN_COLUMNS:
+            xs = lips_at
     xc = int(0.5 * (lx_l + lx_r)) - x0
     half = max(int(0.1 * unit), 1)
     n_top = 0
@@ -294,7 +331,8 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, rgb: np.ndarray, layout: np
             out[c, j, 0] = a0 + (lay[c, j, 0] - l0) * (a1 - a0) / max(l1 - l0, 1e-6)
         out[c, 0, 1] = yl + (lay[c, 0, 1] - ly_l)
         out[c, 3, 1] = yr + (lay[c, 3, 1] - ly_r)
-    etop, ebot = _extend(sub, params[1], cols, top, bottom, int(LIP_GAP * unit + 0.5), int(LIP_EXTEND * unit + 0.5))
+    etop, ebot = _extend(sub, params[1], cols, top, bottom, hair, int(LIP_GAP * unit + 0.5),
+                         int(LIP_EXTEND * unit + 0.5))
     # Outer lips: the blob's outline, moved out across gaps; inner lips: the opening inside it.
     profiles = np.empty((4, len(top)), np.float32)
     for x in range(len(top)):
