@@ -42,6 +42,7 @@ FOLLOW_SPAN = 0.6          # fraction      of the layout's mouth width the blob 
 LIP_GAP = 0.1              # face units    gap in a column across which a lip part beyond the blob joins it
 LIP_EXTEND = 0.25          # face units    farthest a column's outer lip edge is moved out across such gaps
 OPEN_THICKNESS = 0.8       # fraction      of the layout's lip thickness an open mouth's lips keep at least
+HAIR_SLACK = 0.1           # face units    below the layout's lips' line hair over a closed mouth may end
 HAIR_MIN = 0.04            # face units    least height of a dark run at the blob's top (hair) and of the lip below it
 TEETH_LEVEL = 0.9          # fraction      pixels brighter than this times the skin's V just beyond the blob are teeth
 TEETH_SATURATION = 0.65    # fraction      teeth are less saturated than this times the skin's saturation
@@ -51,13 +52,13 @@ TEETH_MAX = 0.3            # face units    tallest run of teeth the opening take
 
 @nb.njit(**INNER)
 def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.ndarray, value: np.ndarray,
-             sat: np.ndarray, skin: float, sat_max: float, unit: float):
+             sat: np.ndarray, skin: float, sat_max: float, line: float, unit: float):
     """Top and bottom of the mouth opening per column of the mouth rectangle (the lip crease if closed), and
     where the lips start at the top (below hair over the upper lip; else the blob's top), and whether each
     column holds lip (not only dark pixels).
 
     ``value`` is the HSV value V (0..255) of the rectangle, ``sat`` its saturation (0..1), ``skin`` the cheeks'
-    median V. The opening is dark (below :data:`DARK_FRACTION` of the lips' brightness, or of the skin's if
+    median V, ``line`` the y of the layout's line between the lips (rectangle pixels). The opening is dark (below :data:`DARK_FRACTION` of the lips' brightness, or of the skin's if
     lower), left out of the lip blob between its top and bottom, or teeth just beyond the blob (brighter than
     the skin and less saturated than ``sat_max``); its largest 8-connected part counts if it is big and wide
     enough, with the parts stacked above and below it.
@@ -101,7 +102,10 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
         end = y
         while y < bottom[x] and mask[y, x] and value[y, x] >= thr:
             y += 1
-        if end - start >= hair_min and y - end >= hair_min and y < bottom[x] - 1 and \
+        # (lip below the dark run down to the blob's bottom: a closed mouth under hair if the run ends above
+        # where the layout puts the lips' line; else the lips may be pale and the run the opening)
+        below = y < bottom[x] - 1 or end <= line + HAIR_SLACK * unit
+        if end - start >= hair_min and y - end >= hair_min and below and \
                 _teeth_end(value[:, x], sat[:, x], int(top[x]) - 1, -1, teeth, sat_max, edge, most) < 0:
             lip_top[x] = end                         # (teeth above the dark run: it is the opening)
     for x in range(w):
@@ -292,7 +296,7 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, rgb: np.ndarray, layout: np
         cheeks[i] = median(cs.ravel()) if cs.size else 0.0
     sat_max = TEETH_SATURATION * median(cheeks)
     itop, ibot, ltop, lit = _opening(mask, cols, top, bottom, value[y0:y1, x0:x1],
-                                     _saturation(rgb, x0, y0, x1, y1), skin, sat_max, unit)
+                                     _saturation(rgb, x0, y0, x1, y1), skin, sat_max, cy - y0, unit)
     hair = ltop > top
     top = ltop
     if hair.sum() >= MOUTH_MIN_COLUMNS:
