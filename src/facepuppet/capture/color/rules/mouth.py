@@ -58,10 +58,11 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
     column holds lip (not only dark pixels).
 
     ``value`` is the HSV value V (0..255) of the rectangle, ``sat`` its saturation (0..1), ``skin`` the cheeks'
-    median V, ``line`` the y of the layout's line between the lips (rectangle pixels). The opening is dark (below :data:`DARK_FRACTION` of the lips' brightness, or of the skin's if
-    lower), left out of the lip blob between its top and bottom, or teeth just beyond the blob (brighter than
-    the skin and less saturated than ``sat_max``); its largest 8-connected part counts if it is big and wide
-    enough, with the parts stacked above and below it.
+    median V, ``line`` the y of the layout's line between the lips (rectangle pixels). The opening is dark
+    (below :data:`DARK_FRACTION` of the lips' brightness, or of the skin's if lower), left out of the lip blob
+    between its top and bottom, or teeth just beyond the blob (brighter than :data:`TEETH_LEVEL` of the skin
+    and less saturated than ``sat_max``); its largest 8-connected part counts if it is big and wide enough,
+    with the parts stacked above and below it.
     """
     h, w = mask.shape
     lips = np.empty(h * w)
