@@ -135,22 +135,26 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
     area = np.zeros(count, np.int64)
     xmin = np.full(count, w)
     xmax = np.full(count, -1)
+    seen = np.zeros(count, np.int64)                 # pixels of each part that are dark or teeth
     for y in range(h):
         for x in range(w):
             k = labels[y, x]
             if k:
                 area[k] += 1
+                if value[y, x] < thr or (value[y, x] > teeth and sat[y, x] < sat_max):
+                    seen[k] += 1
                 xmin[k] = min(xmin[k], x)
                 xmax[k] = max(xmax[k], x)
     k = 1 + np.argmax(area[1:])
     if area[k] < OPENING_MIN_AREA * unit * unit or xmax[k] - xmin[k] + 1 < OPENING_MIN_WIDTH * unit:
         return crease, crease.copy(), lip_top, lit
     # Parts of the opening that a tongue (lip-coloured) or a band of teeth splits apart lie above and below
-    # each other: every large enough part across the same columns as the largest is the opening too.
+    # each other: every large enough part across the same columns as the largest, mostly dark or teeth (not a
+    # lip's highlight the blob left out), is the opening too.
     take = np.zeros(count, np.bool_)
     for j in range(1, count):
         overlap = min(xmax[j], xmax[k]) - max(xmin[j], xmin[k]) + 1
-        take[j] = j == k or (area[j] >= OPENING_MIN_AREA * unit * unit
+        take[j] = j == k or (area[j] >= OPENING_MIN_AREA * unit * unit and 2 * seen[j] >= area[j]
                              and overlap >= 0.5 * min(xmax[j] - xmin[j] + 1, xmax[k] - xmin[k] + 1))
     otop = crease.copy()
     obot = crease.copy()
