@@ -124,3 +124,32 @@ def test_box_guess_is_the_top_or_bottom_edge_of_the_box():
 def test_empty_batch():
     f = snake_fields(np.zeros((8, 8), np.float32))
     assert minimise_snakes(np.zeros((0, 4, 2)), np.zeros(0), UP, f).shape == (0, 4, 2)
+
+
+def test_lip_field_paints_the_opening_at_the_lips_level():
+    """Inside the inner lips the field takes the median over the lips (between outer and inner curves); outside
+    it is unchanged, and a closed mouth (inner lips on each other) leaves the whole field as it is."""
+    from facepuppet.capture.color.snakes import lip_field
+    from facepuppet.capture.curves import CURVE_NAMES
+
+    idx = {n: i for i, n in enumerate(CURVE_NAMES)}
+    img = np.zeros((60, 80), np.float32)
+    img[10:50, 10:70] = 0.4                                   # lips
+    img[25:35, 20:60] = 1.0                                   # the opening, brighter than the lips in C
+    curves = np.zeros((len(CURVE_NAMES), 4, 2))
+
+    def line(y0, y1, x0=10.0, x1=70.0):
+        return np.array([[x0, y0], [x0 + (x1 - x0) / 3, y1], [x0 + 2 * (x1 - x0) / 3, y1], [x1, y0]])
+
+    curves[idx["lip_upper_outer"]] = line(30, 2.0)            # B(1/2) at y 9.5
+    curves[idx["lip_lower_outer"]] = line(30, 58.0)           # B(1/2) at y 51.5
+    curves[idx["lip_upper_inner"]] = line(30, 20.0, 18, 62)   # B(1/2) at y 22.5
+    curves[idx["lip_lower_inner"]] = line(30, 40.0, 18, 62)   # B(1/2) at y 37.5
+    out = lip_field(img, curves)
+    assert np.all(out[27:33, 30:50] == np.float32(0.4))       # the opening at the lips' level ...
+    assert out[25, 20] == 1.0                                 # ... inside the inner lips only
+    assert np.array_equal(out[:8], img[:8]) and np.array_equal(out[52:], img[52:])
+    assert out[30, 5] == 0.0 and out[45, 40] == np.float32(0.4)
+    closed = curves.copy()
+    closed[idx["lip_lower_inner"]] = closed[idx["lip_upper_inner"]]
+    assert np.array_equal(lip_field(img, closed), img)

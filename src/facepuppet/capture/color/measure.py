@@ -60,6 +60,8 @@ class Placement:
         Crop pixels the eyes' correction moves the rectangles that follow the eyes.
     mouth_offset : (2,) float64
         Crop pixels the mouth sits off the layout (set by the landmark backend at acquisition).
+    scale : float
+        Size of the face the eyes' correction found, as a share of the crop's face unit.
     light : (3, 3) float64 or None
         Colour transform evening out the light (set at acquisition), or None.
     skinless_ok : bool
@@ -71,6 +73,7 @@ class Placement:
     calibrated: bool
     shift: np.ndarray = field(default_factory=lambda: np.zeros(2))
     mouth_offset: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    scale: float = 1.0
     light: np.ndarray | None = None
     skinless_ok: bool = False
 

@@ -51,7 +51,8 @@ def _outline_inputs() -> dict:
     boxes = np.tile(np.array([n // 4, n // 4, 3 * n // 4, 3 * n // 4], np.int64), (len(BOX_NAMES), 1))
     return {"C": np.zeros((n, n), np.float32), "raw": np.zeros((n, n), np.float32),
             "value": np.zeros((n, n), np.uint8), "layout": layout, "mouth_offset": np.zeros(2), "boxes": boxes,
-            "blob_params": BLOB_PARAMS, "unit": 0.5 * n, "mouth_reach": GENERIC_MOUTH_REACH}
+            "blob_params": BLOB_PARAMS, "unit": 0.5 * n, "mouth_reach": GENERIC_MOUTH_REACH,
+            "rgb": np.zeros((n, n, 3), np.uint8)}
 
 
 def _frame_work(part: str) -> None:

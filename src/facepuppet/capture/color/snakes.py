@@ -23,10 +23,13 @@ import numba as nb
 import numpy as np
 
 from facepuppet._util.jit import INNER, KERNEL
-from facepuppet.capture.curves import bernstein
+from facepuppet.capture.color.rules.kernels import median
+from facepuppet.capture.curves import CURVE_NAMES, bernstein
 
-__all__ = ["SnakeConfig", "SnakeSolver", "snake_fields", "snake_energy", "minimise_snakes", "box_guess", "UPPER",
-           "LOWER"]
+__all__ = ["SnakeConfig", "SnakeSolver", "snake_fields", "snake_energy", "minimise_snakes", "box_guess", "lip_field",
+           "UPPER", "LOWER"]
+
+_LIP_IDX = {n: i for i, n in enumerate(CURVE_NAMES) if n.startswith("lip_")}
 
 #: The feature lies below the curve (the curve is its upper boundary, curve A of Fig. 3).
 UPPER = 1.0
@@ -153,6 +156,95 @@ def _fields(img: np.ndarray, taps: np.ndarray) -> np.ndarray:
             mag[y, x] = out[y, x, 1] * out[y, x, 1] + out[y, x, 2] * out[y, x, 2]
     _central(mag, out, 3, 4)
     return out
+
+
+#: Samples per curve of the polygons :func:`lip_field` fills.
+LIP_POLYGON_SAMPLES = 16
+
+
+def lip_field(intensity: np.ndarray, curves: np.ndarray) -> np.ndarray:
+    """The feature intensity with the mouth opening painted at the lips' own level, for the outer lips' snakes.
+
+    An open mouth's inside (a dark opening bright in C, teeth and tongue dark in C) has edges of its own,
+    often stronger than the lips' edge against the skin, and the offset curves of Eq. 4 cannot tell a
+    skin-to-opening edge from a skin-to-lip one when the lip is pale. Inside the inner lips (the polygon
+    between ``lip_upper_inner`` and ``lip_lower_inner``) the intensity is set to the median over the lips
+    themselves (between the outer and the inner curves), so the only edge left near the outer curves is the
+    lips' outline (Fig. 3's curve A above, curve B below).
+
+    Parameters
+    ----------
+    intensity : (H, W) float32
+        C of the crop (or a part of it).
+    curves : (C, 4, 2) float
+        The rules' curves in the same pixels (:data:`~facepuppet.capture.curves.CURVE_NAMES` order).
+
+    Returns
+    -------
+    (H, W) float32
+        A copy of ``intensity``; unchanged where the inner lips enclose less than one pixel's area.
+    """
+    img = np.array(intensity, dtype=np.float32)
+    c = np.asarray(curves, dtype=np.float64)
+    b = _Basis.get(LIP_POLYGON_SAMPLES)[0].astype(np.float64)
+    ui, li, uo, lo = (b @ c[_LIP_IDX[n]] for n in ("lip_upper_inner", "lip_lower_inner", "lip_upper_outer",
+                                                   "lip_lower_outer"))
+    _paint_opening(img, ui, li, uo, lo)
+    return img
+
+
+@nb.njit(**INNER)
+def _column_y(pts: np.ndarray, x: float) -> float:
+    """y at ``x`` of the polyline ``pts`` (K, 2), points in increasing x (the end's y outside)."""
+    if x <= pts[0, 0]:
+        return pts[0, 1]
+    for k in range(1, len(pts)):
+        if x <= pts[k, 0]:
+            dx = pts[k, 0] - pts[k - 1, 0]
+            t = (x - pts[k - 1, 0]) / dx if dx > 1e-9 else 1.0
+            return pts[k - 1, 1] + t * (pts[k, 1] - pts[k - 1, 1])
+    return pts[len(pts) - 1, 1]
+
+
+@nb.njit(**KERNEL)
+def _paint_opening(img: np.ndarray, ui: np.ndarray, li: np.ndarray, uo: np.ndarray, lo: np.ndarray) -> None:
+    """:func:`lip_field`'s painting in place, column by column: pixel centres between the inner lips' samples
+    (K, 2) take the median of those between the outer and the inner ones (left as they are when the inner
+    lips enclose less than a pixel's area or no lip pixel is found)."""
+    h, w = img.shape
+    xa = max(int(np.ceil(min(uo[0, 0], lo[0, 0]) - 0.5)), 0)
+    xb = min(int(np.floor(max(uo[len(uo) - 1, 0], lo[len(lo) - 1, 0]) - 0.5)), w - 1)
+    if xb < xa:
+        return
+    n = xb - xa + 1
+    top_i = np.empty(n)
+    bot_i = np.empty(n)
+    area = 0.0
+    for i in range(n):
+        x = xa + i + 0.5
+        inside = ui[0, 0] <= x <= ui[len(ui) - 1, 0]
+        top_i[i] = _column_y(ui, x) if inside else 1e9
+        bot_i[i] = _column_y(li, x) if inside else -1e9
+        if inside:
+            area += max(bot_i[i] - top_i[i], 0.0)
+    if area < 1.0:
+        return
+    vals = np.empty(n * h, np.float32)
+    m = 0
+    for i in range(n):
+        x = xa + i + 0.5
+        y0 = _column_y(uo, x)
+        y1 = _column_y(lo, x)
+        for y in range(max(int(np.ceil(y0 - 0.5)), 0), min(int(np.floor(y1 - 0.5)), h - 1) + 1):
+            if not top_i[i] <= y + 0.5 <= bot_i[i]:
+                vals[m] = img[y, xa + i]
+                m += 1
+    if m == 0:
+        return
+    level = median(vals[:m])
+    for i in range(n):
+        for y in range(max(int(np.ceil(top_i[i] - 0.5)), 0), min(int(np.floor(bot_i[i] - 0.5)), h - 1) + 1):
+            img[y, xa + i] = level
 
 
 def _sample(fields: np.ndarray, pts: np.ndarray) -> np.ndarray:

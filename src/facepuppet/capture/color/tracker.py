@@ -44,7 +44,7 @@ from facepuppet.capture.color.profile import GENERIC_LAYOUT, Profile, default_pr
 from facepuppet.capture.color.rules import BLOB_PARAMS, BOX_NAMES, move_boxes, outline_features
 from facepuppet.capture.color.shape_models import FAMILIES, apply_shape_models
 from facepuppet.capture.color.smoothing import CurveSmoother
-from facepuppet.capture.color.snakes import LOWER, UPPER, SnakeSolver, snake_fields
+from facepuppet.capture.color.snakes import LOWER, UPPER, SnakeSolver, lip_field, snake_fields
 from facepuppet.capture.color.transform import feature_intensity, lip_hue_table, skin_fraction
 from facepuppet.capture.curves import CURVE_NAMES, POINT_NAMES
 from facepuppet.capture.features import FrameFeatures
@@ -275,7 +275,7 @@ class ColorTracker:
         crop = np.zeros((h, w, 3), np.uint8)
         curves = np.ascontiguousarray(self._layout_px, dtype=np.float64)
         if part == "snakes":
-            self._snakes(curves[_SNAKE_IDX], snake_fields(np.zeros((h, w), np.float32), SNAKE_BLUR))
+            self._snakes(curves[_SNAKE_IDX], snake_fields(lip_field(np.zeros((h, w), np.float32), curves), SNAKE_BLUR))
             return
         C = self.intensity(crop)
         self.eye_centres(C)
@@ -359,7 +359,7 @@ class ColorTracker:
         a, b, tx, ty = corr.tolist()
         S_px = np.array([[a, -b, tx], [b, a, ty]])
         scale = float(np.hypot(a, b))
-        place.shift = S_px[:, 2] + (S_px[:, :2] - _EYE2) @ place.anchor_mid
+        place.shift, place.scale = S_px[:, 2] + (S_px[:, :2] - _EYE2) @ place.anchor_mid, scale
         self._last_measured = (C, S_px)
         boxes = self._boxes_now()
         # How much the crop looks like a face: needed to pick among candidates (a followed face is judged by
@@ -390,7 +390,7 @@ class ColorTracker:
         it = self._intensity
         curves_px = outline_features(C, raw=it.raw, value=it.value, layout=layout, boxes=boxes,
                                      blob_params=BLOB_PARAMS, unit=unit, mouth_reach=float(self.profile.mouth_reach),
-                                     mouth_offset=self._place.mouth_offset, parts=self._parts)
+                                     mouth_offset=self._place.mouth_offset, parts=self._parts, rgb=crop)
         idx = _SNAKE_IDX
         if len(idx) and "mouth" in self._parts:
             # The snakes see the mouth rectangle and a margin (the fields are only computed there).
@@ -400,7 +400,9 @@ class ColorTracker:
             x0, y0, x1, y1 = max(x0 - m, 0), max(y0 - m, 0), min(x1 + m, w), min(y1 + m, h)
             if x1 - x0 > 2 * m and y1 - y0 > 2 * m:
                 o = np.array([x0, y0], dtype=float)
-                curves_px[idx] = self._snakes(curves_px[idx] - o, snake_fields(C[y0:y1, x0:x1], SNAKE_BLUR)) + o
+                # The opening painted at the lips' level: the snakes see the lips' outline (:func:`.snakes.lip_field`).
+                field = snake_fields(lip_field(C[y0:y1, x0:x1], curves_px - o), SNAKE_BLUR)
+                curves_px[idx] = self._snakes(curves_px[idx] - o, field) + o
         if self._lids:
             # The performer's eyelid model reads the lids off the look of each eye (:mod:`.lids`).
             apply_lid_model(curves_px, crop, self._lids)
@@ -456,10 +458,10 @@ class ColorTracker:
         return generic is not None and skin_fraction(crop, self._cheek_boxes, generic) > SKIN_CHEEKS
 
     def _boxes_now(self) -> np.ndarray:
-        """The feature rectangles (len(BOX_NAMES), 4) of this frame: moved with the layout's eyes (translation
-        only; the mouth also by its offset), clipped to the crop. The cheeks stay where the frame puts them."""
+        """The feature rectangles (len(BOX_NAMES), 4) of this frame: moved with the layout's eyes (the mouth also
+        by its offset, and grown with the eyes), clipped to the crop. The cheeks stay where the frame puts them."""
         return move_boxes(self._box_table, _SHIFTED, _MOUTH_BOX, self._place.shift, self._place.mouth_offset,
-                          *self._size)
+                          self._place.scale, self._place.anchor_mid, *self._size)
 
     def _acquire(self, rgb: np.ndarray, last: FaceFrame | None = None) -> Measurement | None:
         """Find the face afresh (:meth:`~.acquire.Acquirer.find`), the filters and the alignment restarted."""

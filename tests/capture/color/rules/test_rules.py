@@ -175,12 +175,17 @@ def test_snake_fields_are_opencvs_blur_and_central_differences():
         assert np.allclose(snake_fields(img, blur), ref, atol=1e-6)
 
 
-def test_move_boxes_rounds_shifts_and_clips_to_the_crop():
+def test_move_boxes_rounds_shifts_scales_the_mouth_and_clips_to_the_crop():
     from facepuppet.capture.color.rules import move_boxes
 
     boxes = np.array([[10, 10, 20, 20], [0, 0, 5, 5], [90, 40, 100, 50]], dtype=np.int64)
-    out = move_boxes(boxes, np.array([True, False, True]), 2, np.array([2.4, -1.6]), np.array([0.3, 0.2]), 96, 48)
+    moved = np.array([True, False, True])
+    out = move_boxes(boxes, moved, 2, np.array([2.4, -1.6]), np.array([0.3, 0.2]), 1.0, np.zeros(2), 96, 48)
     assert out.tolist() == [[12, 8, 22, 18], [0, 0, 5, 5], [93, 39, 96, 48]]
+    # The mouth box scaled 1.5 about the eyes' midpoint (50, 10), then moved: only the mouth's size changes.
+    boxes[2] = (40, 20, 60, 30)
+    out = move_boxes(boxes, moved, 2, np.array([2.4, -1.6]), np.array([0.3, 0.2]), 1.5, np.array([50.0, 10.0]), 96, 48)
+    assert out.tolist() == [[12, 8, 22, 18], [0, 0, 5, 5], [38, 24, 68, 39]]
 
 
 def test_two_point_similarity_is_the_least_squares_one():
@@ -335,3 +340,62 @@ def test_brow_curve_on_a_faint_brow_above_a_glasses_rim_and_out_to_its_ends():
             assert abs(np.median(off) - depth) < 1.0, (extra, np.median(off), depth)
         assert out[c, 0, 0] == pytest.approx(ends[0], abs=2.0), (extra, out[c, 0, 0], ends)
         assert out[c, 3, 0] == pytest.approx(ends[1], abs=2.0), (extra, out[c, 3, 0], ends)
+
+
+def _mid(curve):
+    """(x, y) of a curve's middle, B(1/2)."""
+    from facepuppet.capture.curves import bezier_points
+
+    return bezier_points(curve, 3)[1]
+
+
+def _open_mouth_scene(glossy: bool):
+    """C and V of a wide-open mouth drawn on the layout: a dark opening (high in C, V 30) 0.3 face units tall
+    from the layout's crease down; pale lips (low in C) unless ``glossy``, where both lips are bands high in C
+    and the lower one is cut by a 3-pixel highlight (low in C) a pixel below the opening."""
+    from facepuppet.capture.curves import CURVE_NAMES
+
+    layout, boxes, params, (h, w), px = _scene()
+    uo, lo, ui = (CURVE_NAMES.index(n) for n in ("lip_upper_outer", "lip_lower_outer", "lip_upper_inner"))
+    xl, xr = int(layout[uo, 0, 0]) + 3, int(layout[uo, 3, 0]) - 3
+    top = int(round(_mid(layout[ui])[1]))
+    bottom = top + int(round(0.3 * px))
+    C = np.zeros((h, w), np.float32)
+    value = np.full((h, w), 200, np.uint8)
+    thick_u = _mid(layout[ui])[1] - _mid(layout[uo])[1]
+    lower = int(round(0.16 * px))
+    if glossy:
+        C[int(top - thick_u):top, xl:xr] = 1.0                       # upper lip
+        C[bottom:bottom + lower, xl:xr] = 1.0                         # lower lip ...
+        C[bottom + 1:bottom + 4, xl + 4:xr - 4] = 0.0                 # ... and its highlight
+    C[top:bottom, xl:xr] = 1.0
+    value[top:bottom, xl:xr] = 30
+    out = outline_features(C, raw=np.zeros((h, w), np.float32), value=value, layout=layout, boxes=boxes,
+                           blob_params=params, unit=px, mouth_reach=GENERIC_MOUTH_REACH)
+    return out, layout, top, bottom, lower, px
+
+
+def test_open_mouth_with_pale_lips_keeps_the_lips_outside_the_opening():
+    """Only the dark opening is high in C (pale lips): the inner lips trace the opening's top and bottom, and
+    the outer lips lie the lips' thickness (0.8 of the layout's at least) beyond them, not on the opening."""
+    from facepuppet.capture.curves import CURVE_NAMES
+
+    out, layout, top, bottom, _, px = _open_mouth_scene(glossy=False)
+    uo, lo, ui, li = (CURVE_NAMES.index(n) for n in ("lip_upper_outer", "lip_lower_outer", "lip_upper_inner",
+                                                     "lip_lower_inner"))
+    assert abs(_mid(out[ui])[1] - top) < 2.0 and abs(_mid(out[li])[1] - bottom) < 2.0
+    thick_u = _mid(layout[ui])[1] - _mid(layout[uo])[1]
+    thick_l = _mid(layout[lo])[1] - _mid(layout[li])[1]
+    assert _mid(out[ui])[1] - _mid(out[uo])[1] >= 0.8 * thick_u - 1e-6
+    assert _mid(out[lo])[1] - _mid(out[li])[1] >= 0.8 * thick_l - 1e-6
+
+
+def test_glossy_lower_lip_is_not_cut_off_the_mouth():
+    """The lower lip's highlight (low in C) cuts it off the blob: the lower outer lip steps over the gap to the
+    lip's lower edge instead of stopping at the opening."""
+    from facepuppet.capture.curves import CURVE_NAMES
+
+    out, layout, top, bottom, lower, px = _open_mouth_scene(glossy=True)
+    lo, li = CURVE_NAMES.index("lip_lower_outer"), CURVE_NAMES.index("lip_lower_inner")
+    assert abs(_mid(out[li])[1] - bottom) < 2.0
+    assert abs(_mid(out[lo])[1] - (bottom + lower)) < 2.0, (_mid(out[lo])[1], bottom, lower)

@@ -14,7 +14,7 @@ import numpy as np
 
 from facepuppet._util.jit import INNER, KERNEL
 from facepuppet.capture.color.blobs import blob_kernel, label8, open_mask
-from facepuppet.capture.color.rules.kernels import median_of_boxes, mid_shift, quantile, sample_profile
+from facepuppet.capture.color.rules.kernels import median, median_of_boxes, mid_shift, quantile, sample_profile
 from facepuppet.capture.curves import CURVE_NAMES
 
 __all__ = ["mouth_outlines"]
@@ -31,21 +31,38 @@ LIP_HIGH = np.array([0.15, 0.8, 0.15, 0.8])
 MOUTH_NEAR = 0.3           # face units    radius around the layout's mouth centre where the lip blob is preferred
 BLOB_MIN_AREA = 3          # pixels        smallest blob that counts (:func:`~.blobs.blob_kernel`)
 MOUTH_MIN_COLUMNS = 4      # columns       fewest columns of the mouth blob for the lips to be read
-LIP_LEVEL_QUANTILE = 0.75  # quantile      the lips' brightness: this quantile of V over the lip blob
-DARK_FRACTION = 0.5        # fraction      pixels darker than this times the lips' or the skin's V are opening
+LIP_LEVEL_QUANTILE = 0.9   # quantile      the lips' brightness: this quantile of V over the lip blob
+LIP_LEVEL_FLOOR = 0.6      # fraction      least lips' brightness, as a share of the skin's V
+DARK_FRACTION = 0.65       # fraction      pixels darker than this times the lips' or the skin's V are opening
 OPENING_OPEN = 3           # pixels        side of the opening (morphology) that clears specks off the opening
 OPENING_MIN_AREA = 0.004   # face units^2  smallest opening that counts as an open mouth
 OPENING_MIN_WIDTH = 0.1    # face units    narrowest opening that counts as an open mouth
+MOUTH_FOLLOW = 0.3         # face units    farthest the lips' and corners' bounds follow the blob (up, down, sideways)
+FOLLOW_SPAN = 0.6          # fraction      of the layout's mouth width the blob must span for the bounds to follow it
+LIP_GAP = 0.1              # face units    gap in a column across which a lip part beyond the blob joins it
+LIP_EXTEND = 0.25          # face units    farthest a column's outer lip edge is moved out across such gaps
+OPEN_THICKNESS = 0.8       # fraction      of the layout's lip thickness an open mouth's lips keep at least
+HAIR_SLACK = 0.1           # face units    below the layout's lips' line hair over a closed mouth may end
+HAIR_MIN = 0.04            # face units    least height of a dark run at the blob's top (hair) and of the lip below it
+TEETH_LEVEL = 0.9          # fraction      pixels brighter than this times the skin's V just beyond the blob are teeth
+TEETH_SATURATION = 0.65    # fraction      teeth are less saturated than this times the skin's saturation
+TEETH_GAP = 0.1            # face units    farthest beyond the blob such a run may start (the blob's blurred edge)
+TEETH_MAX = 0.3            # face units    tallest run of teeth the opening takes in above or below the blob
 
 
 @nb.njit(**INNER)
 def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.ndarray, value: np.ndarray,
-             skin: float, unit: float):
-    """Top and bottom of the mouth opening per column of the mouth rectangle (the lip crease if closed).
+             sat: np.ndarray, skin: float, sat_max: float, line: float, unit: float):
+    """Top and bottom of the mouth opening per column of the mouth rectangle (the lip crease if closed), and
+    where the lips start at the top (below hair over the upper lip; else the blob's top), and whether each
+    column holds lip (not only dark pixels).
 
-    ``value`` is the HSV value V (0..255) of the rectangle, ``skin`` the cheeks' median V. The opening is
-    dark (below half the lips' and the skin's brightness) or left out of the lip blob between its top and
-    bottom; its largest 8-connected part counts if it is big and wide enough.
+    ``value`` is the HSV value V (0..255) of the rectangle, ``sat`` its saturation (0..1), ``skin`` the cheeks'
+    median V, ``line`` the y of the layout's line between the lips (rectangle pixels). The opening is dark
+    (below :data:`DARK_FRACTION` of the lips' brightness, or of the skin's if lower), left out of the lip blob
+    between its top and bottom, or teeth just beyond the blob (brighter than :data:`TEETH_LEVEL` of the skin
+    and less saturated than ``sat_max``); its largest 8-connected part counts if it is big and wide enough,
+    with the parts stacked above and below it.
     """
     h, w = mask.shape
     lips = np.empty(h * w)
@@ -56,58 +73,197 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
                 lips[n] = value[y, x]
                 n += 1
     level = quantile(lips[:n], LIP_LEVEL_QUANTILE) if n else skin
-    thr = DARK_FRACTION * min(level, skin)
+    # A blob that is all opening (pale lips) has the opening's own level: the lips are taken to be at least
+    # LIP_LEVEL_FLOOR of the skin's brightness.
+    thr = DARK_FRACTION * min(max(level, LIP_LEVEL_FLOOR * skin), skin)
     opening = np.zeros((h, w), np.uint8)
     crease = np.empty(w, np.float32)
+    # Hair above the lips (a moustache) is dark as the opening and joins the lip blob at its top: a dark run at
+    # the blob's top with lip below it and more blob below that is not the opening, and the lips start under it.
+    teeth = TEETH_LEVEL * skin
+    most = int(TEETH_MAX * unit + 0.5)
+    edge = int(TEETH_GAP * unit + 0.5)
+    lip_top = top.copy()
+    lit = np.zeros(w, np.bool_)
+    hair_min = max(int(HAIR_MIN * unit + 0.5), 1)
+    for x in range(w):
+        if not cols[x]:
+            continue
+        n_lit = 0
+        for y in range(h):
+            if mask[y, x] and value[y, x] >= thr:
+                n_lit += 1
+        lit[x] = n_lit >= hair_min
+        y = int(top[x])
+        if y < bottom[x] and value[y, x] >= thr:
+            y += 1                                   # the blob's blurred edge
+        start = y
+        while y < bottom[x] and mask[y, x] and value[y, x] < thr:
+            y += 1
+        end = y
+        while y < bottom[x] and mask[y, x] and value[y, x] >= thr:
+            y += 1
+        # (lip below the dark run down to the blob's bottom: a closed mouth under hair if the run ends above
+        # where the layout puts the lips' line; else the lips may be pale and the run the opening)
+        below = y < bottom[x] - 1 or end <= line + HAIR_SLACK * unit
+        if end - start >= hair_min and y - end >= hair_min and below and \
+                _teeth_end(value[:, x], sat[:, x], int(top[x]) - 1, -1, teeth, sat_max, edge, most) < 0:
+            lip_top[x] = end                         # (teeth above the dark run: it is the opening)
     for x in range(w):
         best = np.inf
         arg = -1
         for y in range(h):
-            if cols[x] and top[x] + 1 <= y < bottom[x] - 1:
+            if cols[x] and lip_top[x] + 1 <= y < bottom[x] - 1:
                 if value[y, x] < thr or not mask[y, x]:
                     opening[y, x] = 1
                 if value[y, x] < best:
                     best = value[y, x]
                     arg = y
-        crease[x] = arg + 0.5 if arg >= 0 else (top[x] + bottom[x]) / 2.0
+        crease[x] = arg + 0.5 if arg >= 0 else (lip_top[x] + bottom[x]) / 2.0
+        if cols[x] and lip_top[x] == top[x]:
+            # Teeth just beyond the blob (a pale lip left out of it): the opening reaches the lip past them.
+            for step in (-1, 1):
+                start = int(top[x]) - 1 if step < 0 else int(bottom[x])
+                end = _teeth_end(value[:, x], sat[:, x], start, step, teeth, sat_max, edge, most)
+                if end >= 0:
+                    for y in range(min(start, end), max(start, end) + 1):
+                        opening[y, x] = 1
     opening = open_mask(opening, OPENING_OPEN)
     labels, count = label8(opening)
     if count < 2:
-        return crease, crease.copy()
+        return crease, crease.copy(), lip_top, lit
     area = np.zeros(count, np.int64)
     xmin = np.full(count, w)
     xmax = np.full(count, -1)
+    seen = np.zeros(count, np.int64)                 # pixels of each part that are dark or teeth
     for y in range(h):
         for x in range(w):
             k = labels[y, x]
             if k:
                 area[k] += 1
+                if value[y, x] < thr or (value[y, x] > teeth and sat[y, x] < sat_max):
+                    seen[k] += 1
                 xmin[k] = min(xmin[k], x)
                 xmax[k] = max(xmax[k], x)
     k = 1 + np.argmax(area[1:])
     if area[k] < OPENING_MIN_AREA * unit * unit or xmax[k] - xmin[k] + 1 < OPENING_MIN_WIDTH * unit:
-        return crease, crease.copy()
+        return crease, crease.copy(), lip_top, lit
+    # Parts of the opening that a tongue (lip-coloured) or a band of teeth splits apart lie above and below
+    # each other: every large enough part across the same columns as the largest, mostly dark or teeth (not a
+    # lip's highlight the blob left out), is the opening too.
+    take = np.zeros(count, np.bool_)
+    for j in range(1, count):
+        overlap = min(xmax[j], xmax[k]) - max(xmin[j], xmin[k]) + 1
+        take[j] = j == k or (area[j] >= OPENING_MIN_AREA * unit * unit and 2 * seen[j] >= area[j]
+                             and overlap >= 0.5 * min(xmax[j] - xmin[j] + 1, xmax[k] - xmin[k] + 1))
     otop = crease.copy()
     obot = crease.copy()
     for x in range(w):
         for y in range(h):
-            if labels[y, x] == k:
+            if labels[y, x] > 0 and take[labels[y, x]]:
                 otop[x] = y
                 break
         for y in range(h - 1, -1, -1):
-            if labels[y, x] == k:
+            if labels[y, x] > 0 and take[labels[y, x]]:
                 obot[x] = y + 1
                 break
+    return otop, obot, lip_top, lit
+
+
+@nb.njit(**INNER)
+def _saturation(rgb: np.ndarray, x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
+    """HSV saturation (0..1) of the rectangle (x0, y0, x1, y1) of ``rgb`` (H, W, 3) uint8, (y1 - y0, x1 - x0)."""
+    out = np.zeros((max(y1 - y0, 0), max(x1 - x0, 0)), np.float32)
+    for y in range(y0, y1):
+        for x in range(x0, x1):
+            r, g, b = np.int64(rgb[y, x, 0]), np.int64(rgb[y, x, 1]), np.int64(rgb[y, x, 2])
+            hi = max(r, g, b)
+            out[y - y0, x - x0] = (hi - min(r, g, b)) / hi if hi > 0 else 0.0
+    return out
+
+
+@nb.njit(**INNER)
+def _teeth_end(column: np.ndarray, sat: np.ndarray, start: int, step: int, level: float, sat_max: float, gap: int,
+               most: int) -> int:
+    """The last pixel of a run of teeth from ``start`` going ``step`` (-1 up, 1 down): pixels brighter than
+    ``level`` and less saturated than ``sat_max`` (``column`` V, ``sat`` saturation), starting within ``gap``
+    pixels (the blob's blurred edge), ended within ``most`` pixels by another pixel (the lip) inside the column;
+    -1 if there is no such run."""
+    y = start
+    for _ in range(gap):
+        if 0 <= y < len(column) and not (column[y] > level and sat[y] < sat_max):
+            y += step
+    if not 0 <= y < len(column) or not (column[y] > level and sat[y] < sat_max):
+        return -1
+    n = 0
+    while 0 <= y < len(column) and column[y] > level and sat[y] < sat_max and n <= most:
+        y += step
+        n += 1
+    if n == 0 or n > most or not 0 <= y < len(column):
+        return -1
+    return y - step
+
+
+@nb.njit(**INNER)
+def _extend(sub: np.ndarray, level: float, cols: np.ndarray, top: np.ndarray, bottom: np.ndarray, hair: np.ndarray,
+            gap: int, most: int):
+    """The blob's column profile moved out across short gaps onto lip parts the blob left out.
+
+    A glossy lower lip's highlight or the upper teeth can cut a lip off the blob (the blob then ends at the
+    mouth opening): in each column, a run of pixels above ``level`` that starts within ``gap`` pixels beyond
+    the blob's top (bottom) moves the top (bottom) to the run's far end, at most ``most`` pixels out.
+    Returns the new (top, bottom), (W,) float32.
+    """
+    h, w = sub.shape
+    otop = top.copy()
+    obot = bottom.copy()
+    for x in range(w):
+        if not cols[x]:
+            continue
+        # Downwards from the blob's bottom.
+        y = int(bottom[x])
+        limit = min(int(bottom[x]) + most, h)
+        start = -1
+        for yy in range(y, min(y + gap, limit)):
+            if sub[yy, x] > level:
+                start = yy
+                break
+        if start >= 0:
+            yy = start
+            while yy < limit and sub[yy, x] > level:
+                yy += 1
+            obot[x] = yy
+        # Upwards from the blob's top (not over hair, ``hair`` (W,) bool).
+        if hair[x]:
+            continue
+        y = int(top[x]) - 1
+        limit = max(int(top[x]) - most, 0)
+        start = -1
+        for yy in range(y, max(y - gap, limit - 1), -1):
+            if sub[yy, x] > level:
+                start = yy
+                break
+        if start >= 0:
+            yy = start
+            while yy >= limit and sub[yy, x] > level:
+                yy -= 1
+            otop[x] = yy + 1
     return otop, obot
 
 
+@nb.njit(**INNER)
+def _mid_y(ctrl: np.ndarray) -> float:
+    """y of a curve's middle, B(1/2)."""
+    return 0.125 * (ctrl[0, 1] + ctrl[3, 1]) + 0.375 * (ctrl[1, 1] + ctrl[2, 1])
+
+
 @nb.njit(**KERNEL)
-def mouth_outlines(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset: np.ndarray, out: np.ndarray,
-                   boxes: np.ndarray, params: np.ndarray, unit: float, reach: float) -> None:
+def mouth_outlines(C: np.ndarray, value: np.ndarray, rgb: np.ndarray, layout: np.ndarray, offset: np.ndarray,
+                   out: np.ndarray, boxes: np.ndarray, params: np.ndarray, unit: float, reach: float) -> None:
     """Lips from the mouth blob (§3.2, Fig. 3): corners and outer lips from its outline, inner lips from the
-    mouth opening inside it, written into ``out`` (C, 4, 2). ``boxes``: the rectangles in
-    :data:`~.outline.BOX_NAMES` order (the mouth is row 4, the cheeks rows 5 and 6). ``offset`` (2,) moves the layout's
-    lips (where the mouth was seen at acquisition);
+    mouth opening inside it, written into ``out`` (C, 4, 2). ``rgb`` (H, W, 3) uint8 is the crop. ``boxes``: the
+    rectangles in :data:`~.outline.BOX_NAMES` order (the mouth is row 4, the cheeks rows 5 and 6). ``offset`` (2,)
+    moves the layout's lips (where the mouth was seen at acquisition);
     the corners stay within ``reach`` face units of the layout's.
     """
     x0, y0, x1, y1 = boxes[4]
@@ -127,14 +283,55 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset:
     xs = np.nonzero(cols)[0]
     if len(xs) < MOUTH_MIN_COLUMNS:
         return
+    # The mouth's height on the face differs between people: the bounds of the upper lips and the corners
+    # follow the mouth's upper edge (the blob's, or the opening's where teeth put it higher; the upper lip
+    # moves least with the expressions) at the layout's middle columns, within MOUTH_FOLLOW.
+    # A blob much narrower than the mouth is a part of it (a corner's shadow, a moustache's tip, a greyscale
+    # face's crease): where it lies says nothing of where the mouth is, and the bounds stay the layout's.
     lx_l, lx_r = lay[uo, 0, 0], lay[uo, 3, 0]
     ly_l, ly_r = lay[uo, 0, 1], lay[uo, 3, 1]
+    spans = xs[-1] + 1 - xs[0] >= FOLLOW_SPAN * (lx_r - lx_l)
+    skin = median_of_boxes(value, boxes[5:7])
+    # Teeth are the mouth's unsaturated pixels: on a face whose skin is grey itself (a greyscale picture) there
+    # is no telling them from the skin, and no teeth are taken.
+    cheeks = np.empty(2)
+    for i in range(2):
+        bx0, by0, bx1, by1 = boxes[5 + i]
+        cs = _saturation(rgb, bx0, by0, bx1, by1)
+        cheeks[i] = median(cs.ravel()) if cs.size else 0.0
+    sat_max = TEETH_SATURATION * median(cheeks)
+    itop, ibot, ltop, lit = _opening(mask, cols, top, bottom, value[y0:y1, x0:x1],
+                                     _saturation(rgb, x0, y0, x1, y1), skin, sat_max, cy - y0, unit)
+    hair = ltop > top
+    top = ltop
+    if hair.sum() >= MOUTH_MIN_COLUMNS:
+        # A moustache reaches past the mouth's corners: the corners lie at the last columns holding lip.
+        lips_at = np.nonzero(cols & lit)[0]
+        if len(lips_at) >= MOUTH_MIN_COLUMNS:
+            xs = lips_at
+    xc = int(0.5 * (lx_l + lx_r)) - x0
+    half = max(int(0.1 * unit), 1)
+    n_top = 0
+    tops = np.empty(2 * half + 1)
+    for x in range(max(xc - half, 0), min(xc + half + 1, len(cols))):
+        if cols[x]:
+            tops[n_top] = min(top[x], itop[x]) + y0
+            n_top += 1
+    dy = 0.0
+    if n_top and spans:
+        dy = min(max(median(tops[:n_top]) - _mid_y(lay[uo]), -MOUTH_FOLLOW * unit), MOUTH_FOLLOW * unit)
     b = reach * unit
-    xl = min(max(xs[0] + x0, lx_l - b), lx_l + b)
-    xr = min(max(xs[-1] + 1 + x0, lx_r - b), lx_r + b)
+    # Sideways too (the mouth slides across the face frame when the head turns): the corners' bounds follow
+    # the blob's middle.
+    dx = 0.0
+    if spans:
+        dx = min(max(0.5 * (xs[0] + xs[-1] + 1) + x0 - 0.5 * (lx_l + lx_r), -MOUTH_FOLLOW * unit),
+                 MOUTH_FOLLOW * unit)
+    xl = min(max(xs[0] + x0, lx_l + dx - b), lx_l + dx + b)
+    xr = min(max(xs[-1] + 1 + x0, lx_r + dx - b), lx_r + dx + b)
     mid = (top + bottom) / 2.0 + y0
-    yl = min(max(mid[xs[0]:xs[0] + 3].mean(), ly_l - b), ly_l + b)
-    yr = min(max(mid[max(xs[-1] - 2, 0):xs[-1] + 1].mean(), ly_r - b), ly_r + b)
+    yl = min(max(mid[xs[0]:xs[0] + 3].mean(), ly_l + dy - b), ly_l + dy + b)
+    yr = min(max(mid[max(xs[-1] - 2, 0):xs[-1] + 1].mean(), ly_r + dy - b), ly_r + dy + b)
     for c in _LIPS:
         l0, l1 = lay[c, 0, 0], lay[c, 3, 0]
         # Each curve keeps its end offsets from the outer corners (inner lip ends lie inside the mouth).
@@ -143,22 +340,38 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, layout: np.ndarray, offset:
             out[c, j, 0] = a0 + (lay[c, j, 0] - l0) * (a1 - a0) / max(l1 - l0, 1e-6)
         out[c, 0, 1] = yl + (lay[c, 0, 1] - ly_l)
         out[c, 3, 1] = yr + (lay[c, 3, 1] - ly_r)
-    skin = median_of_boxes(value, boxes[5:7])
-    itop, ibot = _opening(mask, cols, top, bottom, value[y0:y1, x0:x1], skin, unit)
-    # Outer lips: the blob's outline; inner lips: the opening inside it (bounds: fraction of the unit).
+    etop, ebot = _extend(sub, params[1], cols, top, bottom, hair, int(LIP_GAP * unit + 0.5),
+                         int(LIP_EXTEND * unit + 0.5))
+    # Outer lips: the blob's outline, moved out across gaps; inner lips: the opening inside it.
     profiles = np.empty((4, len(top)), np.float32)
     for x in range(len(top)):
-        profiles[0, x], profiles[1, x], profiles[2, x], profiles[3, x] = top[x], bottom[x], itop[x], ibot[x]
+        profiles[0, x], profiles[1, x], profiles[2, x], profiles[3, x] = etop[x], ebot[x], itop[x], ibot[x]
     for i in range(4):
         c = _LIPS[i]
         ok, y = sample_profile(out[c], cols, profiles[i] + y0, x0)
         if ok:
             d = mid_shift(out[c], y)
+            centre = dy if c == uo or c == ui else 0.0
             for j in (1, 2):
-                lo_b, hi_b = lay[c, j, 1] + LIP_LOW[i] * unit, lay[c, j, 1] + LIP_HIGH[i] * unit
+                lo_b, hi_b = lay[c, j, 1] + centre + LIP_LOW[i] * unit, lay[c, j, 1] + centre + LIP_HIGH[i] * unit
                 out[c, j, 1] = min(max(out[c, j, 1] + d, lo_b), hi_b)
     for j in (1, 2):
-        out[ui, j, 1] = min(max(out[ui, j, 1], out[uo, j, 1]), out[lo, j, 1])
+        # The outer upper lip lies above the opening (the blob may be the opening alone, its lips pale).
+        out[uo, j, 1] = min(out[uo, j, 1], out[ui, j, 1])
+        out[ui, j, 1] = min(out[ui, j, 1], out[lo, j, 1])
         out[li, j, 1] = min(max(out[li, j, 1], out[ui, j, 1]), out[lo, j, 1])
         # The lower lip keeps at least the layout's thickness (a pale lower lip leaves the blob short of it).
         out[lo, j, 1] = max(out[lo, j, 1], out[li, j, 1] + lay[lo, j, 1] - lay[li, j, 1])
+    # An open mouth's lips keep most of their thickness: where the blob is the dark opening itself (lips
+    # paler than the opening in C), the outer lips lie beyond the inner ones by the lips, not on them.
+    gap = _mid_y(out[li]) - _mid_y(out[ui])
+    if gap > OPENING_MIN_WIDTH * unit:
+        tu = OPEN_THICKNESS * (_mid_y(lay[ui]) - _mid_y(lay[uo]))
+        tl = OPEN_THICKNESS * (_mid_y(lay[lo]) - _mid_y(lay[li]))
+        du = _mid_y(out[ui]) - tu - _mid_y(out[uo])
+        dl = _mid_y(out[li]) + tl - _mid_y(out[lo])
+        for j in (1, 2):
+            if du < 0:
+                out[uo, j, 1] += du / 0.75
+            if dl > 0:
+                out[lo, j, 1] += dl / 0.75

@@ -41,7 +41,7 @@ OUTLINE_PARTS = ("eyes", "brows", "mouth")
 
 def outline_features(C: np.ndarray, *, raw: np.ndarray, value: np.ndarray, layout: np.ndarray, boxes: np.ndarray,
                      blob_params: np.ndarray, unit: float, mouth_reach: float, mouth_offset: np.ndarray | None = None,
-                     parts: tuple[str, ...] = OUTLINE_PARTS) -> np.ndarray:
+                     parts: tuple[str, ...] = OUTLINE_PARTS, rgb: np.ndarray | None = None) -> np.ndarray:
     """The layout moved onto each feature's blob, within plausible bounds (§3.2).
 
     Each part is one compiled kernel called from here (:mod:`.eyes`, :mod:`.brows`, :mod:`.mouth`): numba
@@ -69,6 +69,8 @@ def outline_features(C: np.ndarray, *, raw: np.ndarray, value: np.ndarray, layou
         Crop pixels the mouth sits off the layout (default none).
     parts : tuple of str
         Which of :data:`OUTLINE_PARTS` to read (all by default); the others keep the layout's curves.
+    rgb : (H, W, 3) uint8, optional
+        The crop itself (the mouth tells teeth by their low saturation); without it, no teeth are taken.
 
     Returns
     -------
@@ -87,16 +89,21 @@ def outline_features(C: np.ndarray, *, raw: np.ndarray, value: np.ndarray, layou
         brow_outlines(raw, layout, out, boxes, blob_params[1], unit)
         brow_edges(value, layout, out, boxes, unit)
     if "mouth" in parts:
-        mouth_outlines(C, value, layout, mouth_offset, out, boxes, blob_params[2], unit, mouth_reach)
+        if rgb is None:
+            rgb = np.zeros(C.shape + (3,), np.uint8)
+        mouth_outlines(C, value, rgb, layout, mouth_offset, out, boxes, blob_params[2], unit, mouth_reach)
     return out
 
 
 @nb.njit(**KERNEL)
 def move_boxes(boxes: np.ndarray, moved: np.ndarray, mouth: int, shift: np.ndarray, mouth_offset: np.ndarray,
-               w: int, h: int) -> np.ndarray:
+               scale: float, centre: np.ndarray, w: int, h: int) -> np.ndarray:
     """Rectangles (N, 4) of a frame: the ``moved`` ones by ``shift`` (the mouth, row ``mouth``, also by
-    ``mouth_offset``), each rounded to whole pixels, then clipped to the crop (w, h)."""
+    ``mouth_offset``, and enlarged by ``scale`` if above 1 about ``centre`` (2,), the eyes' midpoint: an open
+    jaw reaches as far in face units on a face the eyes found larger; a smaller face keeps the box's room to
+    spare), each rounded to whole pixels, then clipped to the crop (w, h)."""
     out = boxes.copy()
+    scale = max(scale, 1.0)
     for k in range(len(boxes)):
         if not moved[k]:
             continue
@@ -104,6 +111,11 @@ def move_boxes(boxes: np.ndarray, moved: np.ndarray, mouth: int, shift: np.ndarr
         if k == mouth:
             dx += mouth_offset[0]
             dy += mouth_offset[1]
+            for j in range(2):                  # x, then y
+                d = dx if j == 0 else dy
+                for i in (j, j + 2):
+                    out[k, i] = np.int64(np.round(centre[j] + scale * (boxes[k, i] - centre[j]) + d))
+            continue
         ix, iy = np.int64(np.round(dx)), np.int64(np.round(dy))
         out[k, 0] += ix
         out[k, 2] += ix
