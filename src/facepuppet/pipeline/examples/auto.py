@@ -138,7 +138,9 @@ def from_auto(media: str | os.PathLike, names: Sequence[str], *, config: Example
     > 0 is the performer's left), since performers rarely show one side alone. Then, the common expressions first
     (:data:`PRIORITY`) and the rest by score, key-models are left out (and reported in the warnings) that the
     performer never shows (score below ``config.min_score``), that barely move the feature points, or that are shown
-    only together with one already kept (``config.blend_tolerance``; the mapping could not tell them apart).
+    only together with one already kept (``config.blend_tolerance``; the mapping could not tell them apart). With
+    ``regress`` the kept key-models are then fitted again without the left-out ones, so that together they
+    explain the clip as the mapping will see it.
 
     The noise is :func:`facepuppet.mapping.noise.coordinate_noise` with the kept key-models' scores. When the
     track's own head pose never turns (the colour tracker's is upright: a turn of the head moves its feature
@@ -271,6 +273,15 @@ def from_auto(media: str | os.PathLike, names: Sequence[str], *, config: Example
                               f"({'; '.join(skipped)})")
     kept = tuple(n for n in names if n in chosen)
     kept_groups_idx = sorted({groups.index(parts) for name, parts, _ in shown if name in chosen})
+    if config.auto_method == "regress":
+        # Fitted again with the kept key-models alone: together they explain the clip as the mapping will see it.
+        kept_picks = {groups[j]: picks[groups[j]] for j in kept_groups_idx}
+        neutral = regress_picks(kept_picks, [groups[j] for j in kept_groups_idx], per_group[:, kept_groups_idx],
+                                track, ok, neutral)
+        for name, parts, side in shown:
+            if name in chosen:
+                full = kept_picks[parts][1] - neutral
+                chosen[name] = neutral + (full if side is None else side_mask(neutral, side, width)[:, None] * full)
     noise = coordinate_noise(track.points[ok], per_group[ok][:, kept_groups_idx], neutral)
     nuisance = (head_turn_nuisance(track.points[ok], scores_track.rotation[ok], scores[ok], neutral)
                 if _upright_only(track, ok) else None)
