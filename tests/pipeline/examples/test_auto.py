@@ -12,6 +12,20 @@ from facepuppet.pipeline.examples import ExamplesConfig, from_auto
 from synthetic_tracks import P, make_track
 
 
+def lip_points() -> np.ndarray:
+    """(P,) bool: the feature points on the lips' curves."""
+    from facepuppet.capture.curves import POINT_NAMES
+
+    return np.array([n.startswith("lip") for n in POINT_NAMES])
+
+
+def region_of(prefix: str) -> np.ndarray:
+    """(P,) bool: the feature points on the curves whose name starts with ``prefix``."""
+    from facepuppet.capture.curves import POINT_NAMES
+
+    return np.array([n.startswith(prefix) for n in POINT_NAMES])
+
+
 def test_auto_picks_frames_by_blendshape_scores(rng):
     from facepuppet.arkit import ARKIT_NAMES as BLENDSHAPE_NAMES
 
@@ -88,7 +102,8 @@ def test_auto_regression_separates_expressions_shown_together(rng):
     col = {n: i for i, n in enumerate(ARKIT_NAMES)}
     f = 80
     neutral = rng.normal(size=(P, 3))
-    jaw, smile = rng.normal(size=(P, 3)), rng.normal(size=(P, 3))
+    lips = lip_points()[:, None]                                       # the jaw and the smile move the lips
+    jaw, smile = rng.normal(size=(P, 3)) * lips, rng.normal(size=(P, 3)) * lips
     scores = np.zeros((f, len(ARKIT_NAMES)))
     s_jaw = np.clip(np.sin(np.arange(f) / 6.0), 0, 1)
     s_smile = np.clip(np.cos(np.arange(f) / 9.0), 0, 1) * 0.8
@@ -138,3 +153,43 @@ def test_auto_takes_the_head_turns_the_landmark_backend_sees_as_nuisance(rng):
     alone = from_auto("clip", ["jawOpen"], config=ExamplesConfig(window=3), scores_track=scores_track,
                            track=scores_track)
     assert alone.nuisance is None
+
+
+def test_auto_keeps_each_expression_to_its_part_of_the_face_and_finds_neutral_without_a_relaxed_frame(rng):
+    """A performer who never relaxes (the jaw always at least a third open) and whose lips part by an amount
+    no score measures whenever the eyes close: the blink comes back on the eyelids alone, the jaw whole, and
+    the neutral is the face at zero scores, not the most relaxed frame."""
+    from facepuppet.arkit import ARKIT_NAMES
+
+    col = {n: i for i, n in enumerate(ARKIT_NAMES)}
+    f = 240
+    t = np.arange(f)
+    neutral = rng.normal(size=(P, 3))
+    lips, eyes = region_of("lip")[:, None], region_of("eye")[:, None]
+    jaw, blink, parting = rng.normal(size=(P, 3)) * lips, rng.normal(size=(P, 3)) * eyes, rng.normal(size=(P, 3)) * lips
+    s_jaw = 0.35 + 0.6 * (0.5 + 0.5 * np.sin(t / 7.0))
+    s_blink = np.clip(np.sin(t / 4.3), 0, 1) ** 2
+    scores = np.zeros((f, len(ARKIT_NAMES)))
+    scores[:, col["jawOpen"]] = s_jaw
+    scores[:, [col["eyeBlinkLeft"], col["eyeBlinkRight"]]] = s_blink[:, None]
+    points = (neutral + s_jaw[:, None, None] * jaw + s_blink[:, None, None] * (blink + 0.7 * parting)
+              + 0.01 * rng.normal(size=(f, P, 3)))
+    track = make_track(points, extras={"blendshapes": scores, "blendshape_names": np.array(ARKIT_NAMES)})
+    result = from_auto("clip", ["jawOpen", "eyeBlink"], config=ExamplesConfig(window=3), scores_track=track,
+                       track=track)
+    assert result.names == ("jawOpen", "eyeBlink")
+    scale = np.abs(jaw).max()
+    still = ~region_of("lip")         # the lips' unscored parting averages into their zero-score face
+    np.testing.assert_allclose(result.neutral[still], neutral[still], atol=0.05 * scale)
+    d_jaw, d_blink = result.examples[0] - result.neutral, result.examples[1] - result.neutral
+    np.testing.assert_allclose(d_jaw, jaw, atol=0.05 * scale)
+    np.testing.assert_allclose(d_blink, blink, atol=0.05 * scale)
+    assert np.abs(d_blink[region_of("lip")]).max() == 0.0 and np.abs(d_jaw[region_of("eye")]).max() == 0.0
+    frames = result.frames["neutral"]                    # the most relaxed frames still show a third of the jaw
+    assert s_jaw[frames[0]:frames[1]].min() > 0.3
+    points -= s_blink[:, None, None] * 0.7 * parting
+    track = make_track(points, extras={"blendshapes": scores, "blendshape_names": np.array(ARKIT_NAMES)})
+    result = from_auto("clip", ["jawOpen", "eyeBlink"], config=ExamplesConfig(window=3), scores_track=track,
+                       track=track)
+    np.testing.assert_allclose(result.neutral, neutral, atol=0.02 * scale)
+    np.testing.assert_allclose(result.examples[0], neutral + jaw, atol=0.02 * scale)

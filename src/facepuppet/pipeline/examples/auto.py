@@ -1,7 +1,8 @@
 """Key expressions picked from a video by the landmark backend's ARKit blendshape scores (``--auto``).
 
 For characters whose key-models carry ARKit names: the scores pick the frame that best shows each key-model
-and the most relaxed frame as neutral (:func:`from_auto`).
+and the most relaxed frames as neutral; by default every frame's points are then fitted as a blend of the
+scores, each key-model moving only its own part of the face (:func:`from_auto`, :func:`regress_picks`).
 """
 
 from __future__ import annotations
@@ -19,7 +20,8 @@ from facepuppet.io.track import Track
 from facepuppet.mapping.noise import coordinate_noise, head_turn_nuisance
 from facepuppet.pipeline.examples.checks import FACE_MOTION_FLOOR, explaining_blend, face_scale, make_performer
 from facepuppet.pipeline.examples.config import NEUTRAL, ExamplesConfig
-from facepuppet.pipeline.examples.window import average_near, need_faces
+from facepuppet.pipeline.examples.regions import movable, regional_fit
+from facepuppet.pipeline.examples.window import average_near, lowest_window, need_faces
 from facepuppet.pipeline.tracking import TrackerOptions, get_track
 
 __all__ = ["from_auto", "blendshape_scores", "regress_picks", "side_mask", "UNTRACKED", "PRIORITY",
@@ -58,14 +60,19 @@ def blendshape_scores(track: Track) -> tuple[np.ndarray, tuple[str, ...]]:
 
 
 def regress_picks(picks: dict, groups: list, per_group: np.ndarray, track: Track, ok: np.ndarray,
-                  neutral: np.ndarray) -> None:
-    """Replace each picked expression (in place) by the displacement its score explains over the whole clip.
+                  neutral: np.ndarray) -> np.ndarray:
+    """Replace each picked expression (in place) by the displacement its score explains over the whole clip,
+    in the part of the face it moves; return the face at zero scores, the new neutral.
 
-    Real faces combine expressions (a smile narrows the eyes, a frown lowers the brows), so the frame that
-    shows one key-model best also shows some of others. Over all valid frames f, the displacements from
-    neutral are fitted as a blend of the shown groups' scores, ``x_f - S_B ≈ Σ_g s_g(f) B_g``, by ridge least
-    squares (ridge :data:`RIDGE` times the mean diagonal of the Gram matrix); ``S_B + B_g`` (the face at
-    score 1 of group g alone) replaces the picked frame's points.
+    Real faces combine expressions (a smile narrows the eyes, a frown lowers the brows, an exaggerated performer
+    opens the mouth while blinking), so the frame that shows one key-model best also shows some of others.
+    Over all valid frames f, the displacements from ``neutral`` are fitted as an affine blend of the shown
+    groups' scores, ``x_f - S ≈ c + Σ_g s_g(f) B_g``, where each B_g is zero outside the points its
+    blendshapes move (:func:`facepuppet.pipeline.examples.regions.movable`: a blink moves the eyelids, not the
+    lips) and each region's points are fitted on the scores of the groups that move them, by ridge least
+    squares (:func:`~facepuppet.pipeline.examples.regions.regional_fit`, ridge :data:`RIDGE`). ``S + c`` is
+    the face at zero scores, a neutral that needs no fully relaxed frame; ``S + c + B_g`` (the face at score
+    1 of group g alone) replaces the picked frame's points.
 
     Parameters
     ----------
@@ -77,18 +84,24 @@ def regress_picks(picks: dict, groups: list, per_group: np.ndarray, track: Track
     ok : (F,) bool
         Frames with a face, scores and feature points.
     neutral : (P, D) float
+        The most relaxed frames' points.
+
+    Returns
+    -------
+    (P, D) float
+        The neutral face S + c (``neutral`` itself when no group was picked).
     """
     shown = [j for j, g in enumerate(groups) if picks[g] is not None]
     if not shown:
-        return
-    X = per_group[ok][:, shown]                                          # (F, G)
-    Y = (track.points[ok] - neutral[None]).reshape(int(ok.sum()), -1)   # (F, P*D)
-    gram = X.T @ X
-    ridge = RIDGE * np.trace(gram) / len(shown)
-    B = np.linalg.solve(gram + ridge * np.eye(len(shown)), X.T @ Y)     # (G, P*D)
+        return neutral
+    allowed = movable([groups[j] for j in shown], track.point_names)
+    B, c = regional_fit(per_group[ok][:, shown], track.points[ok] - neutral[None], allowed, RIDGE,
+                        intercept=True)
+    base = neutral + c
     for row, j in enumerate(shown):
         best, _, span = picks[groups[j]]
-        picks[groups[j]] = (best, neutral + B[row].reshape(neutral.shape), span)
+        picks[groups[j]] = (best, base + B[row], span)
+    return base
 
 
 def _priority(parts: tuple[str, ...]) -> int:
@@ -115,17 +128,19 @@ def from_auto(media: str | os.PathLike, names: Sequence[str], *, config: Example
     """Capture the key expressions from a video, picked by the landmark backend's ARKit blendshape scores.
 
     For each key-model whose name is an ARKit blendshape (any common spelling, see
-    :func:`facepuppet.arkit.arkit_parts`) the frame with the highest score of its blendshapes minus
-    the mean score of the other key-models' is taken; the neutral face is the valid frame with the lowest
-    total score (gaze and tongue shapes are left out: the curves do not see them). Feature points are
-    averaged over the steadiest window near each pick; with ``config.auto_method == "regress"`` they are then
-    replaced by what each score explains over the clip (:func:`regress_picks`). One side of a left/right pair
-    (``eyeBlink_L`` with ``eyeBlink_R``, or ICT's ``cheekPuff_L``) gets the displacement of the symmetric
-    expression on its own side of the face only (x > 0 is the performer's left), since performers rarely
-    show one side alone. Then, the common expressions first (:data:`PRIORITY`) and the rest by score,
-    key-models are left out (and reported in the warnings) that the performer never shows (score below
-    ``config.min_score``), that barely move the feature points, or that are shown only together with one
-    already kept (``config.blend_tolerance``; the mapping could not tell them apart).
+    :func:`facepuppet.arkit.arkit_parts`) the frame with the highest score of its blendshapes minus the mean score
+    of the other key-models' is taken; the neutral face is the run of ``config.window`` valid frames with the lowest
+    total score (gaze and tongue shapes are left out: the curves do not see them). Feature points are averaged over
+    the steadiest window near each pick; with ``config.auto_method == "regress"`` (default) they are then replaced
+    by what each score explains over the clip in the part of the face its blendshapes move, and the neutral by the
+    face at zero scores (:func:`regress_picks`). One side of a left/right pair (``eyeBlink_L`` with ``eyeBlink_R``,
+    or ICT's ``cheekPuff_L``) gets the displacement of the symmetric expression on its own side of the face only (x
+    > 0 is the performer's left), since performers rarely show one side alone. Then, the common expressions first
+    (:data:`PRIORITY`) and the rest by score, key-models are left out (and reported in the warnings) that the
+    performer never shows (score below ``config.min_score``), that barely move the feature points, or that are shown
+    only together with one already kept (``config.blend_tolerance``; the mapping could not tell them apart). With
+    ``regress`` the kept key-models are then fitted again without the left-out ones, so that together they
+    explain the clip as the mapping will see it.
 
     The noise is :func:`facepuppet.mapping.noise.coordinate_noise` with the kept key-models' scores. When the
     track's own head pose never turns (the colour tracker's is upright: a turn of the head moves its feature
@@ -180,8 +195,11 @@ def from_auto(media: str | os.PathLike, names: Sequence[str], *, config: Example
     s = np.where(ok[:, None], scores, np.nan)
     used = sorted({col[p] for _, parts, _ in wanted for p in parts})
     relax = np.where(ok, np.nan_to_num(s[:, used]).sum(axis=1), np.inf)
-    neutral_frame = int(np.argmin(relax))
-    neutral, neutral_span = average_near(track, NEUTRAL, neutral_frame, config)
+    neutral_span = lowest_window(relax, ok, config.window)
+    if neutral_span is None:
+        neutral, neutral_span = average_near(track, NEUTRAL, int(np.argmin(relax)), config)
+    else:
+        neutral = track.points[neutral_span[0]:neutral_span[1]].mean(axis=0)
     width = face_scale(neutral) * SIDE_WIDTH
 
     # A key-model is shown by its blendshapes; one side of a left/right pair by the symmetric expression
@@ -211,7 +229,7 @@ def from_auto(media: str | os.PathLike, names: Sequence[str], *, config: Example
         pts, span = average_near(track, g[0], f, config)
         picks[g] = (best, pts, span)
     if config.auto_method == "regress":
-        regress_picks(picks, groups, per_group, track, ok, neutral)
+        neutral = regress_picks(picks, groups, per_group, track, ok, neutral)
 
     # Keep the clearest first; leave out what the performer never shows, what barely moves, and what is
     # shown only together with a key-model already kept (the mapping could not tell them apart).
@@ -255,6 +273,15 @@ def from_auto(media: str | os.PathLike, names: Sequence[str], *, config: Example
                               f"({'; '.join(skipped)})")
     kept = tuple(n for n in names if n in chosen)
     kept_groups_idx = sorted({groups.index(parts) for name, parts, _ in shown if name in chosen})
+    if config.auto_method == "regress":
+        # Fitted again with the kept key-models alone: together they explain the clip as the mapping will see it.
+        kept_picks = {groups[j]: picks[groups[j]] for j in kept_groups_idx}
+        neutral = regress_picks(kept_picks, [groups[j] for j in kept_groups_idx], per_group[:, kept_groups_idx],
+                                track, ok, neutral)
+        for name, parts, side in shown:
+            if name in chosen:
+                full = kept_picks[parts][1] - neutral
+                chosen[name] = neutral + (full if side is None else side_mask(neutral, side, width)[:, None] * full)
     noise = coordinate_noise(track.points[ok], per_group[ok][:, kept_groups_idx], neutral)
     nuisance = (head_turn_nuisance(track.points[ok], scores_track.rotation[ok], scores[ok], neutral)
                 if _upright_only(track, ok) else None)

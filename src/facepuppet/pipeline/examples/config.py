@@ -48,7 +48,8 @@ class ExamplesConfig:
     auto_method : {"regress", "frames"}
         ``--auto``: ``frames`` takes each key-model's points from the frames that show it best; ``regress``
         (default) separates expressions a performer shows together by fitting every frame's points as a blend
-        of the blendshape scores (:func:`facepuppet.pipeline.examples.auto.regress_picks`).
+        of the blendshape scores, each key-model on the part of the face it moves, and takes the face at zero
+        scores as neutral (:func:`facepuppet.pipeline.examples.auto.regress_picks`).
     """
 
     tracker: TrackerOptions = field(default_factory=TrackerOptions)

@@ -10,7 +10,7 @@ from facepuppet.errors import FacepuppetError
 from facepuppet.io.track import Track
 from facepuppet.pipeline.examples.config import ExamplesConfig
 
-__all__ = ["steadiest_window", "average_near", "need_faces"]
+__all__ = ["steadiest_window", "average_near", "lowest_window", "need_faces"]
 
 
 def steadiest_window(points: np.ndarray, valid: np.ndarray, centre: int, radius: int,
@@ -77,6 +77,34 @@ def average_near(track: Track, name: str, centre: int, config: ExamplesConfig,
         span = (int(idx[0]), int(idx[-1]) + 1)
         return track.points[idx].mean(axis=0), span
     return track.points[span[0]:span[1]].mean(axis=0), span
+
+
+def lowest_window(cost: np.ndarray, usable: np.ndarray, window: int) -> tuple[int, int] | None:
+    """The run of ``window`` usable frames anywhere in the clip whose mean ``cost`` is lowest.
+
+    Parameters
+    ----------
+    cost : (F,) float
+        Each frame's cost (non-finite where the frame cannot be used).
+    usable : (F,) bool
+    window : int
+        Frames in the run (fewer if the clip is shorter).
+
+    Returns
+    -------
+    (start, stop) or None
+        The run ``[start, stop)`` (the earliest of equal ones); None if no run of usable frames is that long.
+    """
+    n = len(usable)
+    window = max(1, min(window, n))
+    good = usable & np.isfinite(cost)
+    c = np.where(good, cost, 0.0)
+    sums = np.convolve(c, np.ones(window), mode="valid")                     # (n - window + 1,)
+    full = np.convolve(good.astype(float), np.ones(window), mode="valid") == window
+    if not full.any():
+        return None
+    start = int(np.argmin(np.where(full, sums, np.inf)))
+    return start, start + window
 
 
 def need_faces(track: Track, media: str | os.PathLike) -> None:
