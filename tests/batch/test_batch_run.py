@@ -150,7 +150,15 @@ def test_bad_arguments_are_one_line(clips, tmp_path, capsys):
     assert "both write c1.glb" in capsys.readouterr().err
     assert main(["batch", str(c1), "--rig", str(tmp_path / "none.npz"), "-o", str(tmp_path / "o")]) == 1
     assert "none.npz: no such file" in capsys.readouterr().err
-    assert not (tmp_path / "o" / "report.csv").exists()
+    not_rig = tmp_path / "notes.npz"
+    not_rig.write_text("not a rig")
+    assert main(["batch", str(c1), "--rig", str(not_rig), "-o", str(tmp_path / "o")]) == 1
+    assert "argument 1: " in (err := capsys.readouterr().err) and "notes.npz: cannot read rig file" in err
+    other = tmp_path / "other.npz"
+    np.savez(other, format=np.asarray("facepuppet-track"), version=np.asarray(1))
+    assert main(["batch", str(c1), "--rig", str(other), "-o", str(tmp_path / "o")]) == 1
+    assert "other.npz: not a facepuppet rig file" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists() or not (tmp_path / "o" / "report.csv").exists()
 
 
 def test_ray_missing_is_one_line_naming_the_extra(clips, tmp_path, capsys, monkeypatch):

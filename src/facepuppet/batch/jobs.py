@@ -201,12 +201,21 @@ def options_sha256(config, *, csv: bool, preview: bool) -> str:
 
 
 def check_rigs(jobs: list[Job]) -> dict[str, str]:
-    """sha256 of each distinct rig file of the jobs; raise FacepuppetError naming the first job of a missing one."""
+    """sha256 of each distinct rig file of the jobs; raise FacepuppetError naming the first job of a missing one
+    or of one that is not a rig file of a version this facepuppet reads (its format members alone are read)."""
+    from facepuppet._util.npz import check_format, read_npz
+    from facepuppet.pipeline.rig import RIG_FORMAT, RIG_VERSION
+
     hashes: dict[str, str] = {}
     for job in jobs:
         if job.rig in hashes:
             continue
         if not Path(job.rig).is_file():
             raise FacepuppetError(f"{job.source}: rig {job.rig}: no such file")
+        try:
+            check_format(read_npz(job.rig, "rig file", known=("format", "version")), job.rig, "rig file",
+                         RIG_FORMAT, RIG_VERSION)
+        except FacepuppetError as e:
+            raise FacepuppetError(f"{job.source}: {e}") from e
         hashes[job.rig] = file_sha256(job.rig)
     return hashes
