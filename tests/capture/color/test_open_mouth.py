@@ -38,12 +38,7 @@ def lip_nme(ours, ref):
     """(4,) mean distance from the reference lip curves' samples to ours (:data:`LIPS` order), over the distance
     of the outer eye corners."""
     span = np.linalg.norm(ref[_IDX["eye_left_upper"], 3] - ref[_IDX["eye_right_upper"], 3])
-    d = []
-    for n in LIPS:
-        p = bezier_points(ref[_IDX[n]], 9)
-        q = bezier_points(ours[_IDX[n]], 64)
-        d.append(np.linalg.norm(p[:, None] - q[None], axis=-1).min(axis=1).mean())
-    return np.array(d) / span
+    return np.array([_dist(ours, n, ref, n) for n in LIPS]) / span
 
 
 def _dist(ours, a, ref, b):
