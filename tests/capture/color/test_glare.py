@@ -74,3 +74,78 @@ def test_a_reflection_too_small_to_be_more_than_an_opening_is_left():
     r = int(0.45 * GLARE["tall"][0] * PX)                       # a round highlight shorter than "tall"
     cv2.circle(crop, (int(cx), int(cy)), r, (245, 245, 245), -1)
     assert glare_mask(crop, CHEEKS, EYES, PX) is None
+
+
+def _reference_mask(crop, cheeks, eyes, unit):
+    """The reflection's mask built from OpenCV's own operations (YCrCb conversion, means, comparison,
+    connected components, dilation), as :func:`glare_mask` defines it."""
+    h, w = crop.shape[:2]
+    (ex0, ey0, ex1, ey1), (fx0, fy0, fx1, fy1) = eyes.tolist()
+    x0, y0 = max(min(ex0, fx0), 0), max(min(ey0, fy0), 0)
+    x1, y1 = min(max(ex1, fx1), w), min(int(max(ey1, fy1) + GLARE["below"][0] * unit), h)
+    n, total = 0, np.zeros(3)
+    for cx0, cy0, cx1, cy1 in cheeks.tolist():
+        box = crop[cy0:cy1, cx0:cx1]
+        total += np.asarray(cv2.mean(cv2.cvtColor(box, cv2.COLOR_RGB2YCrCb))[:3]) * (box.size // 3)
+        n += box.size // 3
+    ys, cr, cb = (total / n - (0.0, 128.0, 128.0)).tolist()
+    s2 = cr * cr + cb * cb
+    part = cv2.cvtColor(np.ascontiguousarray(crop[y0:y1, x0:x1]), cv2.COLOR_RGB2YCrCb)
+    least = min(GLARE["tall"][0], GLARE["wide"][0]) * unit
+    lit = cv2.compare(part[..., 0], (1.0 + GLARE["lift"][0]) * ys, cv2.CMP_GT) > 0
+    px = part.astype(np.float32)
+    pale = (px[..., 1] - 128.0) * np.float32(cr) + (px[..., 2] - 128.0) * np.float32(cb) < np.float32(
+        GLARE["chroma"][0] * s2)
+    bright = lit & pale
+    if lit.sum() < least or bright.sum() < least:
+        return None
+    _, labels, stats, _ = cv2.connectedComponentsWithStats(bright[::2, ::2].astype(np.uint8), connectivity=8)
+    big = ((stats[:, cv2.CC_STAT_HEIGHT] > 0.5 * GLARE["tall"][0] * unit)
+           | (stats[:, cv2.CC_STAT_WIDTH] > 0.5 * GLARE["wide"][0] * unit))
+    big[0] = False
+    if not big.any():
+        return None
+    keep = np.repeat(np.repeat(big[labels], 2, axis=0), 2, axis=1)[:y1 - y0, :x1 - x0] & bright
+    mask = np.zeros((h, w), np.uint8)
+    mask[y0:y1, x0:x1][keep] = 255
+    g = max(int(round(GLARE["grow"][0] * unit)), 1)
+    return cv2.dilate(mask, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * g + 1, 2 * g + 1)))
+
+
+def test_the_mask_is_the_one_opencvs_operations_give():
+    """On drawn faces with bright patches of random size, place and tint, and with noise, the mask is, pixel
+    for pixel, the one built from OpenCV's conversion, means, comparison and connected components."""
+    rng = np.random.default_rng(3)
+    found = 0
+    for _ in range(60):
+        crop = _face().astype(int)
+        for _ in range(rng.integers(1, 4)):
+            x, y = int(rng.integers(10, W - 10)), int(rng.integers(20, H // 2))
+            tint = rng.integers(150, 256) + rng.integers(-25, 25, 3)
+            crop[y:y + rng.integers(3, 30), x:x + rng.integers(3, 35)] = tint
+        crop = np.clip(crop + rng.integers(-30, 30, crop.shape), 0, 255).astype(np.uint8)
+        want, got = _reference_mask(crop, CHEEKS, EYES, PX), glare_mask(crop, CHEEKS, EYES, PX)
+        assert (want is None) == (got is None)
+        if want is not None:
+            found += 1
+            assert np.array_equal(want, got)
+    assert 10 < found < 60                                      # both outcomes were tried
+
+
+def test_the_filling_is_the_whole_crops_inpainting(monkeypatch):
+    """Inpainting around the mask gives the pixels inpainting the whole crop gives, masks at the crop's
+    edges and reaches of several sizes included."""
+    import facepuppet.capture.color.glare as glare
+
+    rng = np.random.default_rng(4)
+    for _ in range(40):
+        h, w = int(rng.integers(40, 140)), int(rng.integers(40, 140))
+        crop = cv2.GaussianBlur(rng.integers(0, 256, (h, w, 3)).astype(np.uint8), (5, 5), 0)
+        mask = np.zeros((h, w), np.uint8)
+        for _ in range(rng.integers(1, 4)):
+            y, x = int(rng.integers(-5, h)), int(rng.integers(-5, w))
+            mask[max(y, 0):y + rng.integers(1, 25), max(x, 0):x + rng.integers(1, 25)] = 255
+        unit = float(rng.uniform(10.0, 120.0))
+        monkeypatch.setattr(glare, "glare_mask", lambda *a, m=mask: m)
+        whole = cv2.inpaint(crop, mask, max(GLARE["radius"][0] * unit, 1.0), cv2.INPAINT_TELEA)
+        assert np.array_equal(without_glare(crop, CHEEKS, EYES, unit), whole)

@@ -16,9 +16,13 @@ face unit; luma and chroma as in OpenCV's YCrCb (chroma centred on 128).
 from __future__ import annotations
 
 import cv2
+import numba as nb
 import numpy as np
 
-__all__ = ["GLARE", "glare_mask", "without_glare"]
+from facepuppet._util.jit import INNER, KERNEL
+from facepuppet.capture.color.transform import ycrcb_u8
+
+__all__ = ["GLARE", "glare_mask", "glare_pixels", "without_glare"]
 
 #: The reflection's look and extent: name -> (value, unit, meaning).
 GLARE = {
@@ -30,6 +34,11 @@ GLARE = {
     "radius": (0.08, "face units", "the inpainting's reach"),
     "below": (0.2, "face units", "rows searched below the eye rectangles (a lens reaches below the eye)"),
 }
+
+
+#: Pixels beyond the inpainting's reach around the mask that :func:`without_glare` hands it (its fast marching
+#: steps one pixel past the reach, and the extended image's border is one pixel).
+INPAINT_MARGIN = 4
 
 
 def _value(name: str) -> float:
@@ -52,42 +61,122 @@ def glare_mask(crop: np.ndarray, cheeks: np.ndarray, eyes: np.ndarray, unit: flo
     x1, y1 = min(max(ex1, fx1), w), min(int(max(ey1, fy1) + _value("below") * unit), h)
     if x1 - x0 < 2 or y1 - y0 < 2:
         return None
-    n, total = 0, np.zeros(3)
-    for cx0, cy0, cx1, cy1 in np.asarray(cheeks).tolist():
-        box = crop[max(cy0, 0):cy1, max(cx0, 0):cx1]
-        if box.size:
-            total += np.asarray(cv2.mean(cv2.cvtColor(box, cv2.COLOR_RGB2YCrCb))[:3]) * (box.size // 3)
-            n += box.size // 3
-    if n == 0:
+    found, mask = glare_pixels(crop, np.ascontiguousarray(cheeks, dtype=np.int64), x0, y0, x1, y1, float(unit))
+    if not found:
         return None
-    ys, cr, cb = (total / n - (0.0, 128.0, 128.0)).tolist()
+    g = max(int(round(_value("grow") * unit)), 1)
+    return cv2.dilate(mask, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * g + 1, 2 * g + 1)))
+
+
+@nb.njit(**INNER)
+def _slice_end(stop: int, n: int) -> int:
+    """Where Python's slice ``[start:stop]`` of a length ``n`` ends (a negative ``stop`` counts from the end)."""
+    return min(stop if stop >= 0 else max(n + stop, 0), n)
+
+
+@nb.njit(**KERNEL)
+def glare_pixels(crop: np.ndarray, cheeks: np.ndarray, x0: int, y0: int, x1: int, y1: int, unit: float):
+    """The reflection's pixels in ``crop[y0:y1, x0:x1]`` (:func:`glare_mask`'s work but the mask's growth).
+
+    The skin's light and colour are the mean YCrCb (OpenCV's 8-bit conversion) of the ``cheeks`` rectangles
+    (K, 4) int64 (each clipped as a slice of the crop, the rectangles' means weighted by their pixels); the
+    pixels brighter than it by :data:`GLARE` ``lift`` whose chroma along the skin's is under ``chroma`` of the
+    skin's (in float32) are kept where they belong to a patch (8-connected on the half-resolution mask, the
+    pixels of even row and column) taller than half ``tall`` or wider than half ``wide`` face units there.
+
+    Returns
+    -------
+    found : bool
+        Whether there is a reflection (False also where the part is empty or the skin has no chroma).
+    mask : (H, W) uint8
+        255 on the reflection's pixels (empty (0, 0) when not found).
+    """
+    h, w = crop.shape[:2]
+    none = np.zeros((0, 0), np.uint8)
+    n = 0
+    t0 = t1 = t2 = 0.0
+    for k in range(len(cheeks)):
+        r0, c0 = max(cheeks[k, 1], 0), max(cheeks[k, 0], 0)
+        r1, c1 = _slice_end(cheeks[k, 3], h), _slice_end(cheeks[k, 2], w)
+        if r1 <= r0 or c1 <= c0:
+            continue
+        s0 = s1 = s2 = 0
+        for y in range(r0, r1):
+            for x in range(c0, c1):
+                luma, u, v = ycrcb_u8(np.int64(crop[y, x, 0]), np.int64(crop[y, x, 1]), np.int64(crop[y, x, 2]))
+                s0 += luma
+                s1 += u
+                s2 += v
+        count = (r1 - r0) * (c1 - c0)
+        inv = 1.0 / count                   # a rectangle's mean as cv2.mean takes it, times its pixels
+        t0 += s0 * inv * count
+        t1 += s1 * inv * count
+        t2 += s2 * inv * count
+        n += count
+    if n == 0:
+        return False, none
+    ys, cr, cb = t0 / n, t1 / n - 128.0, t2 / n - 128.0
     s2 = cr * cr + cb * cb
     if s2 < 1.0:
-        return None                         # no skin chroma to tell a colourless patch from
-    part = cv2.cvtColor(np.ascontiguousarray(crop[y0:y1, x0:x1]), cv2.COLOR_RGB2YCrCb)
+        return False, none                  # no skin chroma to tell a colourless patch from
     # The pixels brighter than the skin, then those of them less coloured than it: (Cr, Cb) along the skin's
     # direction under the reflection's most.
     least = min(_TALL, _WIDE) * unit
-    lit = np.flatnonzero(cv2.compare(cv2.extractChannel(part, 0), (1.0 + _LIFT) * ys, cv2.CMP_GT))
-    if lit.size < least:
-        return None
-    px = part.reshape(-1, 3)[lit].astype(np.float32)
-    lit = lit[(px[:, 1] - 128.0) * cr + (px[:, 2] - 128.0) * cb < _CHROMA * s2]
-    if lit.size < least:
-        return None
-    bright = np.zeros(part.shape[:2], bool)
-    bright.flat[lit] = True
-    half = bright[::2, ::2].astype(np.uint8)
-    _, labels, stats, _ = cv2.connectedComponentsWithStats(half, connectivity=8)
-    big = (stats[:, cv2.CC_STAT_HEIGHT] > 0.5 * _TALL * unit) | (stats[:, cv2.CC_STAT_WIDTH] > 0.5 * _WIDE * unit)
-    big[0] = False
-    if not big[1:].any():
-        return None
-    keep = np.repeat(np.repeat(big[labels], 2, axis=0), 2, axis=1)[:y1 - y0, :x1 - x0] & bright
+    level = (1.0 + _LIFT) * ys
+    fcr, fcb, bound, mid = np.float32(cr), np.float32(cb), np.float32(_CHROMA * s2), np.float32(128.0)
+    ph, pw = y1 - y0, x1 - x0
+    bright = np.zeros((ph, pw), np.bool_)
+    n_lit = n_kept = 0
+    for y in range(ph):
+        for x in range(pw):
+            luma, u, v = ycrcb_u8(np.int64(crop[y0 + y, x0 + x, 0]), np.int64(crop[y0 + y, x0 + x, 1]),
+                                  np.int64(crop[y0 + y, x0 + x, 2]))
+            if luma > level:
+                n_lit += 1
+                if (np.float32(u) - mid) * fcr + (np.float32(v) - mid) * fcb < bound:
+                    n_kept += 1
+                    bright[y, x] = True
+    if n_lit < least or n_kept < least:
+        return False, none
+    # The patches of the half-resolution mask (8-connected), and which are big.
+    hh, hw = (ph + 1) // 2, (pw + 1) // 2
+    labels = np.zeros((hh, hw), np.int64)
+    big = np.zeros(hh * hw + 1, np.bool_)
+    stack = np.empty(hh * hw, np.int64)
+    tall, wide = 0.5 * _TALL * unit, 0.5 * _WIDE * unit
+    n_labels = 0
+    any_big = False
+    for i in range(hh):
+        for j in range(hw):
+            if not bright[2 * i, 2 * j] or labels[i, j]:
+                continue
+            n_labels += 1
+            labels[i, j] = n_labels
+            top, bottom, left, right = i, i, j, j
+            stack[0] = i * hw + j
+            size = 1
+            while size:
+                size -= 1
+                ci, cj = stack[size] // hw, stack[size] % hw
+                top, bottom, left, right = min(top, ci), max(bottom, ci), min(left, cj), max(right, cj)
+                for di in range(-1, 2):
+                    for dj in range(-1, 2):
+                        ni, nj = ci + di, cj + dj
+                        if 0 <= ni < hh and 0 <= nj < hw and not labels[ni, nj] and bright[2 * ni, 2 * nj]:
+                            labels[ni, nj] = n_labels
+                            stack[size] = ni * hw + nj
+                            size += 1
+            if bottom - top + 1 > tall or right - left + 1 > wide:
+                big[n_labels] = True
+                any_big = True
+    if not any_big:
+        return False, none
     mask = np.zeros((h, w), np.uint8)
-    mask[y0:y1, x0:x1][keep] = 255
-    g = max(int(round(_value("grow") * unit)), 1)
-    return cv2.dilate(mask, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * g + 1, 2 * g + 1)))
+    for y in range(ph):
+        for x in range(pw):
+            if bright[y, x] and big[labels[y // 2, x // 2]]:
+                mask[y0 + y, x0 + x] = 255
+    return True, mask
 
 
 def without_glare(crop: np.ndarray, cheeks: np.ndarray, eyes: np.ndarray, unit: float) -> np.ndarray:
@@ -96,4 +185,18 @@ def without_glare(crop: np.ndarray, cheeks: np.ndarray, eyes: np.ndarray, unit: 
     mask = glare_mask(crop, cheeks, eyes, unit)
     if mask is None:
         return crop
-    return cv2.inpaint(crop, mask, max(_value("radius") * unit, 1.0), cv2.INPAINT_TELEA)
+    # Telea's inpainting reads and writes only within its reach of the mask (OpenCV rounds the reach to whole
+    # pixels): it runs on the mask's bounding box grown by the reach and a margin, the same pixels as on the
+    # whole crop.
+    radius = max(_value("radius") * unit, 1.0)
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    if not rows.size:
+        return crop
+    m = int(np.ceil(radius)) + INPAINT_MARGIN
+    h, w = mask.shape
+    y0, y1 = max(rows[0] - m, 0), min(rows[-1] + 1 + m, h)
+    x0, x1 = max(cols[0] - m, 0), min(cols[-1] + 1 + m, w)
+    out = crop.copy()
+    out[y0:y1, x0:x1] = cv2.inpaint(np.ascontiguousarray(crop[y0:y1, x0:x1]), np.ascontiguousarray(mask[y0:y1, x0:x1]),
+                                    radius, cv2.INPAINT_TELEA)
+    return out

@@ -57,13 +57,19 @@ def _outline_inputs() -> dict:
 
 def _frame_work(part: str) -> None:
     """What the colour tracker compiles for a frame besides the outlines (Eq. 1 and the contrast, the eye
-    search, the skin test, the rectangles, the lid model, the filters and the head pose), or the snakes."""
+    search, the skin test, the rectangles, the lid model, the filters and the head pose, the glare test), or the
+    snakes."""
     from facepuppet.capture.color.config import ColorTrackerConfig, LandmarkConfig
     from facepuppet.capture.color.tracker import ColorTracker
 
     tracker = ColorTracker(config=ColorTrackerConfig(landmarks=LandmarkConfig(enabled=False)))
     try:
         tracker.warmup(part)
+        if part == "frame":
+            from facepuppet.capture.color.glare import glare_pixels
+
+            w, h = tracker.crop_size
+            glare_pixels(np.zeros((h, w, 3), np.uint8), tracker.feature_boxes[:2], 0, 0, 2, 2, 1.0)
     finally:
         tracker.close()
 
