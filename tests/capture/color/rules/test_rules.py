@@ -438,3 +438,21 @@ def test_teeth_below_a_pale_upper_lip_are_the_mouth_opening(split, teeth_v, teet
     uo, ui = CURVE_NAMES.index("lip_upper_outer"), CURVE_NAMES.index("lip_upper_inner")
     assert abs(_mid(out[ui])[1] - top) < 2.0, (_mid(out[ui])[1], top, bottom)
     assert _mid(out[uo])[1] < _mid(out[ui])[1] - 1.0
+
+
+def test_mouth_corners_lie_on_the_line_where_the_lips_meet():
+    """A closed mouth whose blob reaches farther below the lips' dark meeting line than above it (a heavy lower
+    lip): the corners lie on that line (the darkest row of the blob's end columns), not halfway down the blob."""
+    layout, boxes, params, (h, w), px = _scene()
+    uo = CURVE_NAMES.index("lip_upper_outer")
+    xl, xr = int(layout[uo, 0, 0]) + 1, int(layout[uo, 3, 0]) - 1
+    line = int(round(0.5 * (layout[uo, 0, 1] + layout[uo, 3, 1])))
+    C = np.zeros((h, w), np.float32)
+    C[line - 2:line + 9, xl:xr] = 1.0
+    value = np.full((h, w), 200, np.uint8)
+    value[line - 2:line + 9, xl:xr] = 120
+    value[line, xl:xr] = 60
+    out = outline_features(C, raw=np.zeros((h, w), np.float32), value=value, layout=layout, boxes=boxes,
+                           blob_params=params, unit=px, mouth_reach=GENERIC_MOUTH_REACH)
+    assert out[uo, 0, 1] == pytest.approx(line + 0.5, abs=1.0), (out[uo, 0, 1], line)
+    assert out[uo, 3, 1] == pytest.approx(line + 0.5, abs=1.0), (out[uo, 3, 1], line)

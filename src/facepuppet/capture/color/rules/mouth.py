@@ -264,6 +264,26 @@ def _extend(sub: np.ndarray, level: float, cols: np.ndarray, top: np.ndarray, bo
 
 
 @nb.njit(**INNER)
+def _darkest_row(value: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.ndarray, xa: int, xb: int) -> float:
+    """Mean over the columns ``xa`` .. ``xb - 1`` holding the blob of the centre of each one's darkest pixel
+    (lowest V) between its ``top`` and ``bottom`` (rectangle pixels)."""
+    total = 0.0
+    n = 0
+    for x in range(max(xa, 0), min(xb, len(cols))):
+        if not cols[x] or bottom[x] <= top[x]:
+            continue
+        best = np.inf
+        arg = int(top[x])
+        for y in range(int(top[x]), min(int(bottom[x]), value.shape[0])):
+            if value[y, x] < best:
+                best = value[y, x]
+                arg = y
+        total += arg + 0.5
+        n += 1
+    return total / n if n else 0.5 * (top[xa] + bottom[xa])
+
+
+@nb.njit(**INNER)
 def _mid_y(ctrl: np.ndarray) -> float:
     """y of a curve's middle, B(1/2)."""
     return 0.125 * (ctrl[0, 1] + ctrl[3, 1]) + 0.375 * (ctrl[1, 1] + ctrl[2, 1])
@@ -341,9 +361,11 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, rgb: np.ndarray, layout: np
                  MOUTH_FOLLOW * unit)
     xl = min(max(xs[0] + x0, lx_l + dx - b), lx_l + dx + b)
     xr = min(max(xs[-1] + 1 + x0, lx_r + dx - b), lx_r + dx + b)
-    mid = (top + bottom) / 2.0 + y0
-    yl = min(max(mid[xs[0]:xs[0] + 3].mean(), ly_l + dy - b), ly_l + dy + b)
-    yr = min(max(mid[max(xs[-1] - 2, 0):xs[-1] + 1].mean(), ly_r + dy - b), ly_r + dy + b)
+    # The corners lie where the lips meet: the darkest row of the blob's end columns (the corner's shadow).
+    vsub = value[y0:y1, x0:x1]
+    yl = min(max(_darkest_row(vsub, cols, top, bottom, xs[0], xs[0] + 3) + y0, ly_l + dy - b), ly_l + dy + b)
+    yr = min(max(_darkest_row(vsub, cols, top, bottom, max(xs[-1] - 2, 0), xs[-1] + 1) + y0, ly_r + dy - b),
+             ly_r + dy + b)
     for c in _LIPS:
         l0, l1 = lay[c, 0, 0], lay[c, 3, 0]
         # Each curve keeps its end offsets from the outer corners (inner lip ends lie inside the mouth).
