@@ -399,3 +399,60 @@ def test_glossy_lower_lip_is_not_cut_off_the_mouth():
     lo, li = CURVE_NAMES.index("lip_lower_outer"), CURVE_NAMES.index("lip_lower_inner")
     assert abs(_mid(out[li])[1] - bottom) < 2.0
     assert abs(_mid(out[lo])[1] - (bottom + lower)) < 2.0, (_mid(out[lo])[1], bottom, lower)
+
+
+def _teeth_scene(split: int, teeth_v: float, teeth_s: float):
+    """A smile drawn on the layout, teeth showing below a pale upper lip: skin of HSV value 190 and saturation
+    0.35; the upper lip skin-coloured (nothing in C); a band of teeth 0.2 face units tall from the layout's
+    upper inner lip down, of value ``teeth_v`` and saturation ``teeth_s`` times the skin's, cut across its middle
+    by a line ``split`` pixels tall (the skin's saturation, value 120: neither teeth nor dark); below it the
+    lower lip, the only part high in C. Returns the curves and the teeth's top and bottom rows."""
+    layout, boxes, params, (h, w), px = _scene()
+    uo, ui = CURVE_NAMES.index("lip_upper_outer"), CURVE_NAMES.index("lip_upper_inner")
+    xl, xr = int(layout[uo, 0, 0]) + 3, int(layout[uo, 3, 0]) - 3
+    top = int(round(_mid(layout[ui])[1]))
+    bottom = top + int(round(0.2 * px))
+    hsv = np.empty((h, w, 3), np.uint8)
+    hsv[...] = (5, round(0.35 * 255), 190)
+    hsv[top:bottom, xl:xr] = (15, round(teeth_s * 0.35 * 255), round(teeth_v * 190))
+    mid = (top + bottom) // 2
+    hsv[mid - split // 2:mid - split // 2 + split, xl:xr] = (5, round(0.35 * 255), 120)
+    lower = int(round(0.16 * px))
+    hsv[bottom:bottom + lower, xl:xr] = (175, 150, 150)
+    rgb = cv2.cvtColor(hsv, cv2.COLOR_HSV2RGB)
+    C = np.zeros((h, w), np.float32)
+    C[bottom:bottom + lower, xl:xr] = 1.0
+    value = np.ascontiguousarray(cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV)[..., 2])
+    out = outline_features(C, raw=np.zeros((h, w), np.float32), value=value, layout=layout, boxes=boxes,
+                           blob_params=params, unit=px, mouth_reach=GENERIC_MOUTH_REACH, rgb=rgb)
+    return out, top, bottom
+
+
+@pytest.mark.parametrize("split, teeth_v, teeth_s", [(2, 1.0, 0.3),       # white teeth in two rows
+                                                     (0, 0.85, 0.7)])     # one row, in shade and tinted
+def test_teeth_below_a_pale_upper_lip_are_the_mouth_opening(split, teeth_v, teeth_s):
+    """Only the lower lip is high in C: the teeth above it (unsaturated, brighter than the lips though darker
+    than the skin, their rows split by a line) are the opening, so the upper inner lip lies at the teeth's top,
+    not on the lower lip, and the upper outer lip above it."""
+    out, top, bottom = _teeth_scene(split, teeth_v, teeth_s)
+    uo, ui = CURVE_NAMES.index("lip_upper_outer"), CURVE_NAMES.index("lip_upper_inner")
+    assert abs(_mid(out[ui])[1] - top) < 2.0, (_mid(out[ui])[1], top, bottom)
+    assert _mid(out[uo])[1] < _mid(out[ui])[1] - 1.0
+
+
+def test_mouth_corners_lie_on_the_line_where_the_lips_meet():
+    """A closed mouth whose blob reaches farther below the lips' dark meeting line than above it (a heavy lower
+    lip): the corners lie on that line (the darkest row of the blob's end columns), not halfway down the blob."""
+    layout, boxes, params, (h, w), px = _scene()
+    uo = CURVE_NAMES.index("lip_upper_outer")
+    xl, xr = int(layout[uo, 0, 0]) + 1, int(layout[uo, 3, 0]) - 1
+    line = int(round(0.5 * (layout[uo, 0, 1] + layout[uo, 3, 1])))
+    C = np.zeros((h, w), np.float32)
+    C[line - 2:line + 9, xl:xr] = 1.0
+    value = np.full((h, w), 200, np.uint8)
+    value[line - 2:line + 9, xl:xr] = 120
+    value[line, xl:xr] = 60
+    out = outline_features(C, raw=np.zeros((h, w), np.float32), value=value, layout=layout, boxes=boxes,
+                           blob_params=params, unit=px, mouth_reach=GENERIC_MOUTH_REACH)
+    assert out[uo, 0, 1] == pytest.approx(line + 0.5, abs=1.0), (out[uo, 0, 1], line)
+    assert out[uo, 3, 1] == pytest.approx(line + 0.5, abs=1.0), (out[uo, 3, 1], line)

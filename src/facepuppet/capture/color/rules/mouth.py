@@ -44,10 +44,11 @@ LIP_EXTEND = 0.25          # face units    farthest a column's outer lip edge is
 OPEN_THICKNESS = 0.8       # fraction      of the layout's lip thickness an open mouth's lips keep at least
 HAIR_SLACK = 0.1           # face units    below the layout's lips' line hair over a closed mouth may end
 HAIR_MIN = 0.04            # face units    least height of a dark run at the blob's top (hair) and of the lip below it
-TEETH_LEVEL = 0.9          # fraction      pixels brighter than this times the skin's V just beyond the blob are teeth
-TEETH_SATURATION = 0.65    # fraction      teeth are less saturated than this times the skin's saturation
+TEETH_LEVEL = 0.8          # fraction      pixels brighter than this times the skin's V just beyond the blob are teeth
+TEETH_SATURATION = 0.75    # fraction      teeth are less saturated than this times the skin's saturation
 TEETH_GAP = 0.1            # face units    farthest beyond the blob such a run may start (the blob's blurred edge)
 TEETH_MAX = 0.3            # face units    tallest run of teeth the opening takes in above or below the blob
+TEETH_SPLIT = 0.05         # face units    longest break inside a run of teeth (the line between two rows of teeth)
 
 
 @nb.njit(**INNER)
@@ -83,6 +84,7 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
     teeth = TEETH_LEVEL * skin
     most = int(TEETH_MAX * unit + 0.5)
     edge = int(TEETH_GAP * unit + 0.5)
+    split = int(TEETH_SPLIT * unit + 0.5)
     lip_top = top.copy()
     lit = np.zeros(w, np.bool_)
     hair_min = max(int(HAIR_MIN * unit + 0.5), 1)
@@ -107,7 +109,7 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
         # where the layout puts the lips' line; else the lips may be pale and the run the opening)
         below = y < bottom[x] - 1 or end <= line + HAIR_SLACK * unit
         if end - start >= hair_min and y - end >= hair_min and below and \
-                _teeth_end(value[:, x], sat[:, x], int(top[x]) - 1, -1, teeth, sat_max, edge, most) < 0:
+                _teeth_end(value[:, x], sat[:, x], int(top[x]) - 1, -1, teeth, sat_max, edge, most, split) < 0:
             lip_top[x] = end                         # (teeth above the dark run: it is the opening)
     for x in range(w):
         best = np.inf
@@ -124,7 +126,7 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
             # Teeth just beyond the blob (a pale lip left out of it): the opening reaches the lip past them.
             for step in (-1, 1):
                 start = int(top[x]) - 1 if step < 0 else int(bottom[x])
-                end = _teeth_end(value[:, x], sat[:, x], start, step, teeth, sat_max, edge, most)
+                end = _teeth_end(value[:, x], sat[:, x], start, step, teeth, sat_max, edge, most, split)
                 if end >= 0:
                     for y in range(min(start, end), max(start, end) + 1):
                         opening[y, x] = 1
@@ -184,10 +186,11 @@ def _saturation(rgb: np.ndarray, x0: int, y0: int, x1: int, y1: int) -> np.ndarr
 
 @nb.njit(**INNER)
 def _teeth_end(column: np.ndarray, sat: np.ndarray, start: int, step: int, level: float, sat_max: float, gap: int,
-               most: int) -> int:
+               most: int, split: int) -> int:
     """The last pixel of a run of teeth from ``start`` going ``step`` (-1 up, 1 down): pixels brighter than
     ``level`` and less saturated than ``sat_max`` (``column`` V, ``sat`` saturation), starting within ``gap``
-    pixels (the blob's blurred edge), ended within ``most`` pixels by another pixel (the lip) inside the column;
+    pixels (the blob's blurred edge), broken nowhere by more than ``split`` other pixels (the line between the
+    upper and the lower teeth), ended within ``most`` pixels by another pixel (the lip) inside the column;
     -1 if there is no such run."""
     y = start
     for _ in range(gap):
@@ -196,12 +199,21 @@ def _teeth_end(column: np.ndarray, sat: np.ndarray, start: int, step: int, level
     if not 0 <= y < len(column) or not (column[y] > level and sat[y] < sat_max):
         return -1
     n = 0
-    while 0 <= y < len(column) and column[y] > level and sat[y] < sat_max and n <= most:
+    last = -1
+    miss = 0
+    while 0 <= y < len(column) and n <= most:
+        if column[y] > level and sat[y] < sat_max:
+            last = y
+            miss = 0
+        else:
+            miss += 1
+            if miss > split:
+                break
         y += step
         n += 1
-    if n == 0 or n > most or not 0 <= y < len(column):
+    if last < 0 or n > most or not 0 <= y < len(column):
         return -1
-    return y - step
+    return last
 
 
 @nb.njit(**INNER)
@@ -249,6 +261,26 @@ def _extend(sub: np.ndarray, level: float, cols: np.ndarray, top: np.ndarray, bo
                 yy -= 1
             otop[x] = yy + 1
     return otop, obot
+
+
+@nb.njit(**INNER)
+def _darkest_row(value: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.ndarray, xa: int, xb: int) -> float:
+    """Mean over the columns ``xa`` .. ``xb - 1`` holding the blob of the centre of each one's darkest pixel
+    (lowest V) between its ``top`` and ``bottom`` (rectangle pixels)."""
+    total = 0.0
+    n = 0
+    for x in range(max(xa, 0), min(xb, len(cols))):
+        if not cols[x] or bottom[x] <= top[x]:
+            continue
+        best = np.inf
+        arg = int(top[x])
+        for y in range(int(top[x]), min(int(bottom[x]), value.shape[0])):
+            if value[y, x] < best:
+                best = value[y, x]
+                arg = y
+        total += arg + 0.5
+        n += 1
+    return total / n if n else 0.5 * (top[xa] + bottom[xa])
 
 
 @nb.njit(**INNER)
@@ -329,9 +361,11 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, rgb: np.ndarray, layout: np
                  MOUTH_FOLLOW * unit)
     xl = min(max(xs[0] + x0, lx_l + dx - b), lx_l + dx + b)
     xr = min(max(xs[-1] + 1 + x0, lx_r + dx - b), lx_r + dx + b)
-    mid = (top + bottom) / 2.0 + y0
-    yl = min(max(mid[xs[0]:xs[0] + 3].mean(), ly_l + dy - b), ly_l + dy + b)
-    yr = min(max(mid[max(xs[-1] - 2, 0):xs[-1] + 1].mean(), ly_r + dy - b), ly_r + dy + b)
+    # The corners lie where the lips meet: the darkest row of the blob's end columns (the corner's shadow).
+    vsub = value[y0:y1, x0:x1]
+    yl = min(max(_darkest_row(vsub, cols, top, bottom, xs[0], xs[0] + 3) + y0, ly_l + dy - b), ly_l + dy + b)
+    yr = min(max(_darkest_row(vsub, cols, top, bottom, max(xs[-1] - 2, 0), xs[-1] + 1) + y0, ly_r + dy - b),
+             ly_r + dy + b)
     for c in _LIPS:
         l0, l1 = lay[c, 0, 0], lay[c, 3, 0]
         # Each curve keeps its end offsets from the outer corners (inner lip ends lie inside the mouth).
