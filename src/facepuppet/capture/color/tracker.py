@@ -4,10 +4,10 @@ Per frame: the face frame of the last frame (or, when the face is lost, a fresh 
 :mod:`.acquire`) gives a small upright crop of the face (rectangles follow translation, scale and roll; the crop
 is first aligned on the acquisition's, :mod:`.follow`); Eq. 1 and the contrast C turn it into feature intensity
 (:mod:`.transform`); a blob is grown in each feature's rectangle and the layout's curves moved onto it
-(:mod:`.rules`); the lips are refined as snakes (Eqs. 2-4, :mod:`.snakes`) against the head's up-vector; the eye
-blobs re-align the face frame for the next frame; the curves are smoothed (:mod:`.smoothing`) and the head pose
-comes from the stable curve ends (roll and position) and, with a trained profile, the look of the crop (yaw and
-pitch, :mod:`.head_turn`).
+(:mod:`.rules`), the lips refined as snakes (Eqs. 2-4, :mod:`.snakes`) against the head's up-vector
+(:mod:`.outliner`); the eye blobs re-align the face frame for the next frame; the curves are smoothed
+(:mod:`.smoothing`) and the head pose comes from the stable curve ends (roll and position) and, with a trained
+profile, the look of the crop (yaw and pitch, :mod:`.head_turn`).
 
 Conventions: RGB uint8 frames; curves in image pixels (x right, y down); left and right are the performer's.
 """
@@ -37,14 +37,13 @@ from facepuppet.capture.color.follow import LOST_MEMORY, Follower, FollowState
 from facepuppet.capture.color.glare import without_glare
 from facepuppet.capture.color.head_turn import apply_turn_model, turn_angles, turn_rotation
 from facepuppet.capture.color.jobs import wait_pending
-from facepuppet.capture.color.lids import PATCH_SIZE, apply_lid_model
 from facepuppet.capture.color.likeness import FaceTemplate
 from facepuppet.capture.color.measure import Measurement, Placement
+from facepuppet.capture.color.outliner import Outliner
 from facepuppet.capture.color.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
-from facepuppet.capture.color.rules import BLOB_PARAMS, BOX_NAMES, move_boxes, outline_features
-from facepuppet.capture.color.shape_models import FAMILIES, apply_shape_models
+from facepuppet.capture.color.rules import BOX_NAMES, move_boxes
+from facepuppet.capture.color.shape_models import FAMILIES
 from facepuppet.capture.color.smoothing import CurveSmoother
-from facepuppet.capture.color.snakes import LOWER, UPPER, SnakeSolver, lip_field, snake_fields
 from facepuppet.capture.color.transform import feature_intensity, lip_hue_table, skin_fraction
 from facepuppet.capture.curves import CURVE_NAMES, POINT_NAMES
 from facepuppet.capture.features import FrameFeatures
@@ -67,15 +66,12 @@ _IDX = {n: i for i, n in enumerate(CURVE_NAMES)}
 WARMUP_PARTS = ("frame", "snakes")
 
 # Tuning constants                 unit                  what it does
-SNAKE_MARGIN = 8                   # crop pixels           around the mouth rectangle the snakes see
-SNAKE_BLUR = 5                     # crop pixels           blur of the snakes' fields (:func:`.snakes.snake_fields`)
 SKIN_CHEEKS = 0.3                  # fraction              of the cheeks' pixels that must look like skin
 SCALE_STEP = (0.8, 1.25)           # ratio                 size change one frame's alignment or eye search may make
 
 _SHIFTED = np.array([not n.startswith("cheek") for n in BOX_NAMES])     # rectangles that follow the eyes
 _MOUTH_BOX = BOX_NAMES.index("mouth")
 _POSE_POINTS = pose_point_index(STABLE_FEATURES)         # the stable landmarks among the curve ends
-_UP = np.array([0.0, -1.0])                                # the head's up-vector in the upright crop
 _EYE2 = np.eye(2)
 _CROP_ORIGIN = np.asarray(CROP_EXTENT[:2], dtype=float)
 _CHEEK_L, _CHEEK_R = BOX_NAMES.index("cheek_left"), BOX_NAMES.index("cheek_right")
@@ -84,13 +80,6 @@ _EYE_L, _EYE_R = BOX_NAMES.index("eye_left"), BOX_NAMES.index("eye_right")
 _PLACED_PAIR = ((_IDX["eye_right_upper"], 3), (_IDX["eye_left_upper"], 3))
 #: The filter of the head-turn model's yaw and pitch (radians).
 TURN_FILTER = OneEuroConfig(min_cutoff=1.0, beta=2.0)
-
-#: Curves refined as snakes, with the side their feature lies on (Fig. 3).
-_SNAKE_CURVES = (("lip_upper_outer", UPPER),
-                 ("lip_lower_outer", LOWER))
-_SNAKE_IDX = np.array([_IDX[n] for n, _ in _SNAKE_CURVES], dtype=np.int64)
-_SNAKE_SIDE = np.array([s for _, s in _SNAKE_CURVES])
-_SNAKE_FIXED = np.ones(len(_SNAKE_CURVES), bool)
 
 
 @dataclass
@@ -166,17 +155,9 @@ class ColorTracker:
         self.seen: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._last_measured: tuple[np.ndarray, np.ndarray] | None = None    # (C, S_px) of the last measurement
         self._template = FaceTemplate(self._layout_px, self._size, px)
-        self._snakes = SnakeSolver(_SNAKE_SIDE, _UP, config.measure.snake, fixed_ends=_SNAKE_FIXED)
-        # The rules whose curves the shape models replace are not run.
-        shaped = set(self.profile.shapes)
-        replaced = {"mouth"} if "lips" in shaped else set()
-        replaced |= {"brows"} if {"brow_left", "brow_right"} <= shaped else set()
-        replaced |= {"eyes"} if {"eye_left", "eye_right"} <= shaped else set()
-        self._parts = tuple(p for p in config.measure.outline_parts if p not in replaced)
-        # The eyelid model (and its filter) goes with the eyes' rules: where those are not run, it is not either.
-        self._lids = ({k: np.ascontiguousarray(v, dtype=np.float64) for k, v in profile.lids.items()}
-                      if "eyes" in self._parts else {})
-        self._smoother = CurveSmoother(config.filters, lids=bool(self._lids), shaped=np.concatenate(
+        self._outliner = Outliner(profile, config.measure)
+        # The eyelid filter goes with the eyelid model (run with the eyes' rules only).
+        self._smoother = CurveSmoother(config.filters, lids=bool(self._outliner.lids), shaped=np.concatenate(
             [FAMILIES[f] for f in sorted(self.profile.shapes)] or [np.zeros(0, int)]))
         self._acquirer = Acquirer(self, self._place, self._template, self._eye_window)
         self._turn_filter = OneEuro(TURN_FILTER)
@@ -205,7 +186,7 @@ class ColorTracker:
     @property
     def parts(self) -> tuple[str, ...]:
         """The parts of §3.2's rules this tracker runs (the configured ones less those shape models replace)."""
-        return self._parts
+        return self._outliner.parts
 
     @property
     def smoother(self) -> CurveSmoother:
@@ -275,14 +256,13 @@ class ColorTracker:
         crop = np.zeros((h, w, 3), np.uint8)
         curves = np.ascontiguousarray(self._layout_px, dtype=np.float64)
         if part == "snakes":
-            self._snakes(curves[_SNAKE_IDX], snake_fields(lip_field(np.zeros((h, w), np.float32), curves), SNAKE_BLUR))
+            self._outliner.warmup_snakes(curves, (w, h))
             return
         C = self.intensity(crop)
         self.eye_centres(C)
         self._skin_ok(crop)
         self._boxes_now()
-        lids = {"coef": np.zeros((2, PATCH_SIZE[0] * PATCH_SIZE[1])), "intercept": np.zeros(2)}
-        apply_lid_model(curves.copy(), crop, lids)
+        self._outliner.warmup_lids(curves, crop)
         self._smoother.curve(curves, 1 / 30)
         self._smoother.curve(curves, 1 / 30)          # the first sample only starts the filter
         self._features(curves, (w, h))
@@ -370,7 +350,9 @@ class ColorTracker:
         curves = None
         if outline:
             placed = self._layout_px @ S_px[:, :2].T + S_px[:, 2]
-            curves_px = self._outlines(C, crop, placed, boxes, px * scale)
+            it = self._intensity
+            curves_px = self._outliner(C, raw=it.raw, value=it.value, crop=crop, layout=placed, boxes=boxes,
+                                       unit=px * scale, mouth_offset=place.mouth_offset)
             Ainv = cv2.invertAffineTransform(A)
             curves = curves_px @ Ainv[:, :2].T + Ainv[:, 2]                 # back to image pixels
         S = np.empty((2, 3))                                                  # S_px in face units
@@ -381,35 +363,6 @@ class ColorTracker:
                            seen=(crop, A, placed) if outline else None)
 
     # -- internals -------------------------------------------------------------------------------------
-    def _outlines(self, C: np.ndarray, crop: np.ndarray, layout: np.ndarray, boxes: np.ndarray,
-                  unit: float) -> np.ndarray:
-        """The curves (C, 4, 2) in crop pixels: §3.2's rules from the layout placed on the crop (``layout``),
-        the lips refined as snakes, the lids by the performer's eyelid model if any, the lips, brows and eyes
-        by the performer's shape models if any (which make the rules, the snakes and the eyelid model they
-        replace needless). ``unit``: crop pixels per face unit."""
-        it = self._intensity
-        curves_px = outline_features(C, raw=it.raw, value=it.value, layout=layout, boxes=boxes,
-                                     blob_params=BLOB_PARAMS, unit=unit, mouth_reach=float(self.profile.mouth_reach),
-                                     mouth_offset=self._place.mouth_offset, parts=self._parts, rgb=crop)
-        idx = _SNAKE_IDX
-        if len(idx) and "mouth" in self._parts:
-            # The snakes see the mouth rectangle and a margin (the fields are only computed there).
-            h, w = C.shape
-            m = SNAKE_MARGIN
-            x0, y0, x1, y1 = boxes[_MOUTH_BOX]
-            x0, y0, x1, y1 = max(x0 - m, 0), max(y0 - m, 0), min(x1 + m, w), min(y1 + m, h)
-            if x1 - x0 > 2 * m and y1 - y0 > 2 * m:
-                o = np.array([x0, y0], dtype=float)
-                # The opening painted at the lips' level: the snakes see the lips' outline (:func:`.snakes.lip_field`).
-                field = snake_fields(lip_field(C[y0:y1, x0:x1], curves_px - o), SNAKE_BLUR)
-                curves_px[idx] = self._snakes(curves_px[idx] - o, field) + o
-        if self._lids:
-            # The performer's eyelid model reads the lids off the look of each eye (:mod:`.lids`).
-            apply_lid_model(curves_px, crop, self._lids)
-        if self.profile.shapes:
-            apply_shape_models(curves_px, crop, layout, self.profile.shapes)
-        return curves_px
-
     def _turn(self, timestamp_ms: int) -> np.ndarray | None:
         """The head's (yaw, pitch) in radians read off the last crop by the profile's head-turn model
         (:mod:`.head_turn`), filtered over time; None without a model."""
