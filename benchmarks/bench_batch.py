@@ -38,7 +38,11 @@ default), in a process of its own each, and the CPU of the whole process (its ot
 OpenCV's pool).
 
 Run: ``python benchmarks/bench_batch.py [--copies 12] [--profile builtin|trained] [--assets PATH] [--no-ray]
-[--no-one-core] [--rig RIG.npz] [--stages]``
+[--no-one-core] [--rig RIG.npz] [--stages] [--repeat N]``
+
+``--repeat N`` (default 3): N pairs of ``--workers 2`` and Ray on an existing cluster, run alternately,
+each printed, with the median overhead and its spread (the bar's figure). Ray runs print the engine's
+timeline (``facepuppet -v batch``).
 """
 
 from __future__ import annotations
@@ -50,6 +54,7 @@ import resource
 import shutil
 import signal
 import socket
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -201,14 +206,15 @@ ENV = {**os.environ, "PYTHONPATH": str(ROOT / "src") + os.pathsep + os.environ.g
 
 
 def facepuppet(*args: str, cpus: set[int] | None = None, cluster: Cluster | None = None,
-               ray: bool = False) -> tuple[float, float]:
+               ray: bool = False, timeline: bool = False) -> tuple[float, float]:
     """Run ``python -m facepuppet ARGS`` in a session of its own (on the CPUs ``cpus`` only, if given); seconds of
     wall time and CPU seconds of the processes it waited for, or with ``ray`` of every process of its session (its
     own Ray runtime) and of ``cluster``'s (:class:`SessionCPU`). Exit codes other than 0 stop the benchmark."""
     env = ENV if cluster is None else {**ENV, **cluster.client_env}
     pin = None if cpus is None else (lambda: os.sched_setaffinity(0, cpus))
     c0, t0 = children_cpu(), time.perf_counter()
-    proc = subprocess.Popen([sys.executable, "-m", "facepuppet", *args], env=env, stdout=subprocess.PIPE,
+    verbose = ["-v"] if timeline else []
+    proc = subprocess.Popen([sys.executable, "-m", "facepuppet", *verbose, *args], env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, preexec_fn=pin,  # sets only the child's CPU affinity
                             start_new_session=True)
     sampler = SessionCPU([proc.pid, *([cluster.proc.pid] if cluster else [])]) if ray else None
@@ -221,6 +227,10 @@ def facepuppet(*args: str, cpus: set[int] | None = None, cluster: Cluster | None
     dt, cpu = time.perf_counter() - t0, children_cpu() - c0
     if sampler is not None:
         cpu = sampler.stop()
+    if timeline:                                # the engine's own timeline (facepuppet.batch.timeline)
+        for line in stderr.splitlines():
+            if "timeline:" in line:
+                print("  " + line.split("timeline:", 1)[1].strip())
     done = subprocess.CompletedProcess(proc.args, proc.returncode, "", stderr)
     if done.returncode != 0:
         raise SystemExit(f"facepuppet {' '.join(args)} failed ({done.returncode}):\n{done.stderr[-2000:]}")
@@ -357,6 +367,8 @@ def main(argv=None) -> int:
                     help="the colour tracker's profile: built-in, or trained on the first clip (module notes)")
     ap.add_argument("--no-one-core", action="store_true", help="leave out the run of 1 worker pinned to 1 core")
     ap.add_argument("--rig", help="a rig made before (with the built-in profile) instead of making one")
+    ap.add_argument("--repeat", type=int, default=3, help="pairs of local 2-worker and Ray-cluster runs, "
+                    "alternately, for the median overhead (the first pair is the table's)")
     ap.add_argument("--stages", action="store_true", help="first, where one worker's CPU goes (module notes)")
     ap.add_argument("--stages-of", nargs="+", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
@@ -429,7 +441,7 @@ def bench(args, assets: Path, model: str, tmp: Path) -> int:
             times[label], cpus[label] = facepuppet("batch", *map(str, clips), "-o", str(out), "--csv", *common,
                                                    *extra, cpus=where if isinstance(where, set) else None,
                                                    cluster=cluster if where == "cluster" else None,
-                                                   ray="ray" in extra)
+                                                   ray="ray" in extra, timeline="ray" in extra)
             if where == "cluster":
                 cluster.stop()
                 cluster = None
@@ -437,9 +449,34 @@ def bench(args, assets: Path, model: str, tmp: Path) -> int:
                 for ext in ("glb", "csv"):
                     if (out / f"{c.stem}.{ext}").read_bytes() != (single_dir / f"{c.stem}.{ext}").read_bytes():
                         raise SystemExit(f"{label}: {c.stem}.{ext} differs from animate's")
+        pairs = []
+        if ray and "batch --workers 2" in times and RAY_CLUSTER in times:
+            pairs.append((times["batch --workers 2"], times[RAY_CLUSTER]))
+        for k in range(1, args.repeat if ray else 0):   # more pairs, alternately: local 2 workers, then Ray
+            out = tmp / f"repeat{k}"
+            t_local, _ = facepuppet("batch", *map(str, clips), "-o", str(out / "local"), "--csv", *common,
+                                    "--workers", "2")
+            cluster = Cluster(2, ENV)
+            cluster.first_driver()
+            time.sleep(1.0)
+            t_ray, _ = facepuppet("batch", *map(str, clips), "-o", str(out / "ray"), "--csv", *common,
+                                  "--engine", "ray", "--address", cluster.address, cluster=cluster, ray=True,
+                                  timeline=True)
+            cluster.stop()
+            cluster = None
+            pairs.append((t_local, t_ray))
     finally:
         if cluster is not None:
             cluster.stop()
+    if len(pairs) > 1:
+        print(f"\npairs run alternately (local 2 workers, then Ray on a new existing cluster: connect + actors + "
+              f"work + disconnect; load {os.getloadavg()[0]:.2f}):")
+        over = []
+        for k, (t_local, t_ray) in enumerate(pairs):
+            over.append(100 * (t_ray - t_local) / t_local)
+            print(f"  pair {k + 1}: local {t_local:.1f} s, Ray {t_ray:.1f} s, overhead {over[-1]:+.1f} %")
+        print(f"Ray's overhead, median of {len(over)} pairs: {statistics.median(over):+.1f} % "
+              f"(spread {min(over):+.1f} to {max(over):+.1f} %; bar <= 15 %)")
 
     print(f"\n{args.copies} clips, {frames} frames (colour tracker, GLB + CSV); each line one process "
           f"(the single runs: one each)")

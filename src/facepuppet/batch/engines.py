@@ -19,6 +19,7 @@ from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
 from facepuppet.batch.ray_engine import RAY_MISSING, RAY_TASK_CPUS, run_ray
+from facepuppet.batch.timeline import Timeline
 from facepuppet.batch.worker import (
     ClipResult,
     ClipTask,
@@ -66,10 +67,12 @@ def run_local(tasks: list[ClipTask], *, workers: int | None, on_progress: OnProg
     """Run the tasks in ``workers`` processes of this machine (None: ``os.cpu_count()``; spawned, each living
     for the whole batch, with one thread in its native pools: :func:`~facepuppet.batch.worker.share_cores`).
 
-    ``address`` is not used (the Ray engine's).
+    ``address`` is not used (the Ray engine's). Where the time went is logged at INFO level
+    (:mod:`facepuppet.batch.timeline`).
     """
     if not tasks:
         return
+    timeline = Timeline("local")
     ctx = multiprocessing.get_context("spawn")
     progress = ctx.Queue()
     before = set(multiprocessing.active_children())
@@ -90,7 +93,9 @@ def run_local(tasks: list[ClipTask], *, workers: int | None, on_progress: OnProg
                     except Exception as e:      # noqa: BLE001 - the worker process died under this clip
                         result = ClipResult(index=task.index, ok=False,
                                             error=f"{task.clip}: worker process ended ({one_line(e)})")
+                    timeline.clip(f"pid {result.worker}", result.started, result.seconds)
                     on_result(result)
+            timeline.mark("last clip back")
         except BaseException:
             for p in ours:
                 if p.is_alive():
@@ -99,6 +104,8 @@ def run_local(tasks: list[ClipTask], *, workers: int | None, on_progress: OnProg
             raise
         finally:
             _drain(progress, on_progress)
+    timeline.mark("workers ended")
+    timeline.log()
 
 
 #: Engine name -> runner; ``local`` is the default.

@@ -19,11 +19,22 @@ import logging
 import os
 import queue as queue_module
 import threading
+import time
 
-from facepuppet.batch.worker import PROGRESS_EVERY_S, ClipResult, ClipTask, cached_rig, one_line, run_clip, share_cores
+from facepuppet.batch.timeline import Timeline, process_start_time
+from facepuppet.batch.worker import (
+    PROGRESS_EVERY_S,
+    ClipResult,
+    ClipTask,
+    cached_rig,
+    one_line,
+    run_clip,
+    share_cores,
+    warm_up,
+)
 from facepuppet.errors import FacepuppetError
 
-__all__ = ["run_ray", "ClipWorker", "RAY_MISSING", "RAY_TASK_CPUS", "RAY_INIT", "POLL_S"]
+__all__ = ["run_ray", "ClipWorker", "RAY_MISSING", "RAY_TASK_CPUS", "RAY_INIT", "POLL_S", "STEPS_WAIT_S"]
 
 log = logging.getLogger(__name__)
 
@@ -32,6 +43,9 @@ RAY_TASK_CPUS = 1
 
 #: Seconds the driver waits on the running clips before looking again.
 POLL_S = 0.1
+
+#: Seconds the driver waits at the end for the actors' start-up steps (the timeline's).
+STEPS_WAIT_S = 5.0
 
 #: What to say when the Ray engine is asked for without Ray installed.
 RAY_MISSING = '--engine ray needs Ray: pip install "facepuppet[ray]"'
@@ -49,18 +63,49 @@ class ClipWorker:
     ----------
     threads : int
         Threads of its native pools (:func:`~facepuppet.batch.worker.share_cores`): its CPUs.
+    warm : TrackerOptions, optional
+        The batch's tracker options: the actor loads at once what its first clip would
+        (:func:`~facepuppet.batch.worker.warm_up`), while the driver sends out the rigs and the other actors start.
     """
 
-    def __init__(self, threads: int = RAY_TASK_CPUS) -> None:
+    def __init__(self, threads: int = RAY_TASK_CPUS, warm=None) -> None:
+        self.steps = [("process", process_start_time()), ("init", time.time())]
+        self.clips = 0
         share_cores(threads)
+        self.warming = None
+        if warm is not None:                # on a thread of its own: the first clip's rig is fetched meanwhile
+            self.warming = threading.Thread(target=self._warm_up, args=(warm,), name="facepuppet-warm-up",
+                                            daemon=True)
+            self.warming.start()
+
+    def _warm_up(self, options) -> None:
+        try:
+            self.steps += warm_up(options)
+        except Exception:                   # noqa: BLE001 - the first clip does the same work and says what fails
+            log.debug("warm-up failed", exc_info=True)
+        self.steps.append(("warmed up", time.time()))
+
+    def steps_done(self) -> tuple[int, list]:
+        """This actor's process id and its start-up steps (name, wall-clock time), for the batch's timeline:
+        its process's start, ``__init__``'s, the warm-up's steps, its first clip's arrival, rig and start."""
+        return os.getpid(), sorted(self.steps, key=lambda step: step[1] or 0.0)
 
     def run(self, task: ClipTask, rig_box: list):
         """Animate one clip: yield frame counts (``int``, frames since the last yield), then its ClipResult.
 
         ``rig_box`` holds the rig's object reference (in a list, so that Ray hands it over unresolved and the
-        rig is fetched only by an actor that has not kept it yet), or the rig itself.
+        rig is fetched only by an actor that has not kept it yet), or the rig itself. The first clip waits for
+        the warm-up after fetching its rig.
         """
+        self.clips += 1
+        if self.clips == 1:
+            self.steps.append(("first clip arrived", time.time()))
         rig = cached_rig(task.rig, task.rig_sha256, load=lambda: _resolve(rig_box[0]))
+        if self.clips == 1:
+            self.steps.append(("its rig", time.time()))
+        if self.warming is not None:
+            self.warming.join()
+            self.warming = None
         counts: queue_module.SimpleQueue = queue_module.SimpleQueue()
         done: list[ClipResult] = []
         failure: list[BaseException] = []
@@ -123,43 +168,63 @@ def run_ray(tasks: list[ClipTask], *, workers: int | None, address: str | None, 
     existing cluster: ``auto``, ``HOST:PORT`` of its head, ``ray://HOST:10001``) or starts a local runtime of
     ``workers`` CPUs (:data:`RAY_INIT`), and shuts down what it started at the end. ``workers`` is the number of
     actors (None, or more than the cluster has CPUs: one per CPU). Clips and outputs must be on paths every node
-    sees.
+    sees. Where the time went is logged at INFO level (:mod:`facepuppet.batch.timeline`).
     """
+    timeline = Timeline("ray")
     try:
         import ray
     except ImportError:
         raise FacepuppetError(RAY_MISSING) from None
     if not tasks:
         return
+    timeline.mark("ray imported")
     started = False
     if not ray.is_initialized():
         if address:
             ray.init(address=address, logging_level=RAY_INIT["logging_level"])
+            timeline.mark(f"connected to the cluster at {address}")
         else:
             ray.init(address="local", num_cpus=max(1, int(workers or os.cpu_count() or 1)), **RAY_INIT)
+            timeline.mark("own Ray runtime started")
         started = True
     actors: list = []
     try:
-        _drive(ray, tasks, _slots(ray, workers, len(tasks)), actors, on_progress, on_result)
+        _drive(ray, tasks, _slots(ray, workers, len(tasks)), actors, on_progress, on_result, timeline)
     finally:
         for actor in actors:
             try:
                 ray.kill(actor)
             except Exception:                   # noqa: BLE001, S110 - already gone
                 pass
+        timeline.mark("actors ended")
         if started:
             ray.shutdown()
+            timeline.mark("Ray shut down" if address else "own Ray runtime shut down")
+        timeline.log()
 
 
-def _drive(ray, tasks, slots: int, actors: list, on_progress, on_result) -> None:
-    """Feed the tasks to ``slots`` actors (appended to ``actors``) and hand back their progress and results."""
+def _drive(ray, tasks, slots: int, actors: list, on_progress, on_result, timeline: Timeline) -> None:
+    """Feed the tasks to ``slots`` actors (appended to ``actors``) and hand back their progress and results.
+
+    One ``ray.wait`` on every running clip's generator and every actor's start-up call returns as soon as one
+    has something; the actor whose clip ended gets the next clip at once.
+    """
     remote = ray.remote(num_cpus=RAY_TASK_CPUS)(ClipWorker)
-    for _ in range(slots):                      # the actors start (processes, imports) while the rigs go out
-        actors.append(remote.remote(RAY_TASK_CPUS))
+    warm = tasks[0].config.tracker
+
+    def start() -> object:
+        actor = remote.remote(RAY_TASK_CPUS, warm)
+        actors.append(actor)
+        return actor
+
+    for _ in range(slots):                      # the actors start (processes, imports, kernels) while the rigs go out
+        start()
+    timeline.mark(f"{slots} actors asked for")
     rigs: dict = {}
     for t in tasks:
         if t.rig_sha256 not in rigs:
             rigs[t.rig_sha256] = ray.put(cached_rig(t.rig, t.rig_sha256))
+    timeline.mark(f"{len(rigs)} rig(s) in the object store")
     todo = list(reversed(tasks))
     running: dict = {}                          # generator -> (actor, task)
 
@@ -168,14 +233,14 @@ def _drive(ray, tasks, slots: int, actors: list, on_progress, on_result) -> None
             task = todo.pop()
             running[actor.run.remote(task, [rigs[task.rig_sha256]])] = (actor, task)
 
-    for actor in actors:
+    for actor in list(actors):
         give(actor)
     while running:
-        ready, _ = ray.wait(list(running), num_returns=len(running), timeout=POLL_S)
-        for gen in ready:
-            actor, task = running[gen]
+        ready, _ = ray.wait(list(running), num_returns=1, timeout=POLL_S)
+        for ref in ready:
+            actor, task = running[ref]
             try:
-                item = ray.get(next(gen))
+                item = ray.get(next(ref))
             except StopIteration:
                 item = ClipResult(index=task.index, ok=False, error=f"{task.clip}: Ray actor gave no result")
             except Exception as e:              # noqa: BLE001 - the actor died under this clip, or Ray failed it
@@ -185,11 +250,25 @@ def _drive(ray, tasks, slots: int, actors: list, on_progress, on_result) -> None
                     ray.kill(actor)
                 except Exception:               # noqa: BLE001, S110 - already gone
                     pass
-                actor = remote.remote(RAY_TASK_CPUS)
-                actors.append(actor)
+                actor = start()
             if isinstance(item, ClipResult):
-                del running[gen]
+                del running[ref]
+                give(actor)                     # first: the actor starts its next clip while the report is written
+                timeline.clip(f"pid {item.worker}", item.started, item.seconds)
                 on_result(item)
-                give(actor)
             else:
                 on_progress(task.index, int(item))
+    timeline.mark("last clip back")
+    _startups(ray, actors, timeline)
+
+
+def _startups(ray, actors: list, timeline: Timeline) -> None:
+    """Each live actor's start-up steps into the timeline (one call each, all at once; a gone actor is left out)."""
+    calls = [actor.steps_done.remote() for actor in actors]
+    done, _ = ray.wait(calls, num_returns=len(calls), timeout=STEPS_WAIT_S)
+    for ref in done:
+        try:
+            pid, steps = ray.get(ref)
+        except Exception:                       # noqa: BLE001, S112 - the actor is gone
+            continue
+        timeline.worker(f"pid {pid}", steps)

@@ -27,7 +27,7 @@ from facepuppet.pipeline.animate import AnimateConfig
 
 __all__ = ["ClipTask", "ClipResult", "run_clip", "run_guarded", "cached_rig", "reused_tracker", "share_cores",
            "WORKER_THREADS", "BLAS_THREAD_VARIABLES", "guard_worker", "one_line", "PROGRESS_EVERY_S",
-           "PARENT_WATCH_S", "PARENT_GONE_REPEAT_S", "REUSED_BACKENDS"]
+           "PARENT_WATCH_S", "PARENT_GONE_REPEAT_S", "REUSED_BACKENDS", "warm_up"]
 
 log = logging.getLogger(__name__)
 
@@ -88,7 +88,9 @@ class ClipTask:
 
 @dataclass(frozen=True, kw_only=True)
 class ClipResult:
-    """How a clip went: ``ok``, frames, frames with a face, seconds, and the one-line error when not ok."""
+    """How a clip went: ``ok``, frames, frames with a face, seconds, and the one-line error when not ok; when and
+    where it ran: ``started`` (wall-clock ``time.time()`` as the worker began it, 0 if it never did) and
+    ``worker`` (the worker's process id)."""
 
     index: int
     ok: bool
@@ -96,6 +98,8 @@ class ClipResult:
     frames_with_face: int = 0
     seconds: float = 0.0
     error: str = ""
+    started: float = 0.0
+    worker: int = 0
 
 
 def cached_rig(path: str, sha256: str, load=None):
@@ -136,6 +140,31 @@ def reused_tracker(options):
     else:
         tracker.reset()
     return tracker
+
+
+def warm_up(options) -> list[tuple[str, float]]:
+    """Load in this process what a worker's first clip would: ``animate``'s modules, the tracker kept for
+    ``options`` (:func:`reused_tracker`) and, for the colour tracker, its compiled kernels (from numba's on-disk
+    cache, shared by every process that imports this copy of facepuppet; compiled where missing). Changes no
+    output: the kept tracker is reset before each clip.
+
+    Returns
+    -------
+    list of (str, float)
+        Each step's name and the wall-clock time (``time.time()``) it ended.
+    """
+    import facepuppet.pipeline.animate  # noqa: F401 - what a clip imports
+
+    steps = [("imports", time.time())]
+    reused_tracker(options)
+    steps.append(("tracker", time.time()))
+    if options.backend == "color":
+        from facepuppet.capture.color.precompile import TASKS, run_task
+
+        for name in TASKS:
+            run_task(name)
+        steps.append(("kernels", time.time()))
+    return steps
 
 
 def share_cores(threads: int = WORKER_THREADS) -> None:
@@ -213,7 +242,7 @@ def run_clip(task: ClipTask, queue=None, rig=None) -> ClipResult:
     """
     from facepuppet.pipeline.animate import animate
 
-    t0 = time.perf_counter()
+    t0, started = time.perf_counter(), time.time()
     progress = _Progress(queue, task.index)
     try:
         if rig is None:
@@ -229,10 +258,11 @@ def run_clip(task: ClipTask, queue=None, rig=None) -> ClipResult:
         progress.flush()
         log.debug("clip %s failed", task.clip, exc_info=True)
         return ClipResult(index=task.index, ok=False, frames=progress.count, seconds=time.perf_counter() - t0,
-                          error=f"{task.clip}: {one_line(e)}" if task.clip not in str(e) else one_line(e))
+                          error=f"{task.clip}: {one_line(e)}" if task.clip not in str(e) else one_line(e),
+                          started=started, worker=os.getpid())
     progress.flush()
     return ClipResult(index=task.index, ok=True, frames=int(len(anim.valid)), frames_with_face=int(anim.valid.sum()),
-                      seconds=time.perf_counter() - t0)
+                      seconds=time.perf_counter() - t0, started=started, worker=os.getpid())
 
 
 def _die_by_sigterm() -> None:
