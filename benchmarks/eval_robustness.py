@@ -8,7 +8,14 @@ such footage from the shared clips and measures it with the shared yardstick:
 - ``noisy``: Gaussian noise of standard deviation 12 grey levels per channel (a cheap sensor in low light);
 - ``small``: the frame shrunk to 2/5 and set on a grey (90) frame of the original size (a face far away);
 - ``face80``: the frame shrunk so that the face is 80 px wide (:data:`FACE_WIDTH` eye-centre distances, the
-  distance MediaPipe finds on the clip's first frames) and set on a grey frame the same way.
+  distance MediaPipe finds on the clip's first frames) and set on a grey frame the same way;
+- ``cool``: red times 0.8, blue 1.25 (a monitor's or daylight's blue cast);
+- ``rolled``: the frame turned 15 degrees counter-clockwise about its centre, edges reflected (a tilted head);
+- ``mirrored``: left and right swapped (a webcam's mirrored view);
+- ``portrait``: the middle 9:16 of the frame's width kept (a phone held upright);
+- ``darker``: skin-coloured pixels (a window of Cr and Cb around skin's) darkened by a gamma of 1.6 and made
+  browner (R 0.72, G 0.62, B 0.55), feathered over 3 px (a darker complexion, roughly: the lips and the warm
+  background within the window darken too).
 
 Background copies: the face (an oval around MediaPipe's eyes on the original frame, feathered) cut out and set on
 a made-up scene, the kind of room that fools a skin-colour model:
@@ -26,8 +33,9 @@ profile (no landmark model: the copies test the colour pipeline alone), and scor
 The bars of the shared clips are NME <= 0.05, jitter ratio <= 1.5, coverage >= 0.98.
 
 Run: ``python benchmarks/eval_robustness.py [--clips performer_a performer_c] [--variants dim warm noisy small
-face80 wood beige skin_object poster stage_hand] [--assets PATH] [--jobs 2]`` (about a minute per copy on one
-core, MediaPipe's reference included).
+face80 cool rolled mirrored portrait darker wood beige skin_object poster stage_hand] [--assets PATH] [--jobs 2]``
+(about a minute per copy of a or c on one core, MediaPipe's reference included; ``performer_b_exaggerated`` is
+three times as long).
 """
 
 from __future__ import annotations
@@ -44,7 +52,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-VARIANTS = ("dim", "warm", "noisy", "small", "face80")
+VARIANTS = ("dim", "warm", "noisy", "small", "face80", "cool", "rolled", "mirrored", "portrait", "darker")
 BACKGROUNDS = ("wood", "beige", "skin_object", "poster", "stage_hand")
 #: The face cut out: an oval centred this far below the eyes, with these half-axes (eye-centre distances).
 FACE_OVAL = (0.8, 1.2, 1.75)
@@ -53,6 +61,11 @@ STAGE_SCALE = 0.42          # the stage copy's frame scale (a face about 90-115 
 FACE_WIDTH = 2.2
 #: The face80 copy's face width, pixels.
 SMALL_FACE = 80.0
+ROLL = 15.0                 # the rolled copy's turn, degrees counter-clockwise
+#: The darker copy: the skin window's centre and half-width in Cr and Cb (OpenCV's YCrCb, 0-255), the feather
+#: of its edge (levels), the gamma and the RGB gains applied inside it.
+SKIN_CR, SKIN_CB, SKIN_HALF, SKIN_FEATHER = 150.0, 110.0, 15.0, 10.0
+DARKER_GAMMA, DARKER_GAINS = 1.6, (0.72, 0.62, 0.55)
 
 
 def _shrunk(rgb: np.ndarray, f: float) -> np.ndarray:
@@ -113,6 +126,28 @@ def altered(rgb: np.ndarray, variant: str, rng: np.random.Generator, unit: float
         if unit is None:
             raise ValueError("the face80 copy needs the clip's eye-centre distance (unit)")
         return _shrunk(rgb, min(SMALL_FACE / (FACE_WIDTH * unit), 1.0))
+    elif variant == "cool":
+        x = x * np.array([0.8, 1.0, 1.25], dtype=np.float32)
+    elif variant == "rolled":
+        h, w = rgb.shape[:2]
+        turn = cv2.getRotationMatrix2D((w / 2.0, h / 2.0), ROLL, 1.0)
+        return cv2.warpAffine(rgb, turn, (w, h), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
+    elif variant == "mirrored":
+        return np.ascontiguousarray(rgb[:, ::-1])
+    elif variant == "portrait":
+        h, w = rgb.shape[:2]
+        keep = min(w, int(h * 9 / 16) // 2 * 2)
+        return np.ascontiguousarray(rgb[:, (w - keep) // 2:(w - keep) // 2 + keep])
+    elif variant == "darker":
+        ycc = cv2.cvtColor(rgb, cv2.COLOR_RGB2YCrCb).astype(np.float32)
+
+        def window(v, centre):
+            return np.clip(1.0 - np.maximum(np.abs(v - centre) - SKIN_HALF, 0.0) / SKIN_FEATHER, 0.0, 1.0)
+
+        m = cv2.GaussianBlur(window(ycc[..., 1], SKIN_CR) * window(ycc[..., 2], SKIN_CB), (0, 0), 3.0)[..., None]
+        u = x / 255.0
+        dark = u ** DARKER_GAMMA * np.array(DARKER_GAINS, dtype=np.float32)
+        x = 255.0 * (m * dark + (1.0 - m) * u)
     else:
         raise ValueError(f"unknown variant {variant!r}; choose from {', '.join(VARIANTS)}")
     return np.clip(x + 0.5, 0, 255).astype(np.uint8)
