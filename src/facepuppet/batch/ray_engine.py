@@ -259,7 +259,8 @@ def _drive(ray, tasks, slots: int, actors: list, on_progress, on_result, timelin
             else:
                 on_progress(task.index, int(item))
     timeline.mark("last clip back")
-    _startups(ray, actors, timeline)
+    if timeline.wanted():                       # a round trip to every actor, for the log alone
+        _startups(ray, actors, timeline)
 
 
 def _startups(ray, actors: list, timeline: Timeline) -> None:

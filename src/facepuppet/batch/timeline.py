@@ -38,7 +38,7 @@ class Timeline:
     is the first mark, before 0).
 
     ``mark(what)`` notes a moment of the driver; ``worker(name, times)`` a worker's start-up (wall-clock times
-    of its named steps, in order); ``clip(result, worker)`` a finished clip (its ``started`` and ``seconds``).
+    of its named steps, in order); ``clip(worker, started, seconds)`` a finished clip (wall-clock start, length).
     :meth:`lines` gives the summary: the marks, each worker's start-up steps, each worker's clips (count,
     first start, last end, busy seconds and the idle gaps between its clips) and the end.
     """
@@ -52,6 +52,11 @@ class Timeline:
         began = process_start_time()
         if began is not None:
             self.marks.append((self.at(began), "this process started"))
+
+    @staticmethod
+    def wanted() -> bool:
+        """Whether the timeline is logged (INFO enabled): what only it needs can be left undone otherwise."""
+        return log.isEnabledFor(logging.INFO)
 
     def at(self, wall: float) -> float:
         """Seconds from the start of a wall-clock time."""
