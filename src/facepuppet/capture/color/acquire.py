@@ -38,6 +38,7 @@ from facepuppet.capture.color.face import (
 from facepuppet.capture.color.likeness import FaceTemplate
 from facepuppet.capture.color.measure import Measurement, Placement
 from facepuppet.capture.color.profile import Profile
+from facepuppet.capture.color.refind import LOST_REACH, LostFace, likeness
 from facepuppet.capture.color.transform import skin_fraction
 from facepuppet.capture.curves import CURVE_NAMES, bezier_points
 
@@ -61,9 +62,6 @@ SAME_FACE = (0.25, 0.2)                 # face units, log size: the landmark bac
 ANCHOR_STEPS = 4                        # steps         most eye searches to find the eye blobs' fixed point
 ANCHOR_TOLERANCE = 0.25                 # crop pixels   step below which the fixed point is found
 WINDOW_SKIN = 0.3                       # fraction      of a cascade window's middle that must look like skin
-LOST_SIZES = (0.65, 1.5)                # ratio         sizes a face just lost may be found again at, of its size
-LOST_ROLL = 0.5                         # radians       most roll a face just lost may be found again with
-LOST_REACH = 2.0                        # face units    farthest from where a face was just lost it is found again
 #: Between the brows, above the eyes (face units x0, y0, x1, y1): skin on every face, never on a skin-coloured
 #: object whose dark surroundings the eye search took for eyes.
 GLABELLA = (-0.1, -0.5, 0.1, -0.1)
@@ -88,22 +86,6 @@ def fit_light(rgb: np.ndarray, frame: FaceFrame, M: np.ndarray, px: float, size:
     crop = cv2.warpAffine(rgb, frame.crop_matrix(px), size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     top = float(np.percentile(cv2.transform(crop, M), LIGHT_PERCENTILE))
     return M * min(1.0, LIGHT_TOP / max(top, 1.0))
-
-
-def likeness(result: Measurement, last: FaceFrame | None, resize_cost: float) -> float:
-    """How much a measurement's crop looks like a face, less ``resize_cost`` per unit of log size change from
-    ``last``, the frame the face was just lost in (if any); -inf for a frame no face moves to from ``last`` in
-    the moments it is lost (a size outside :data:`LOST_SIZES` of its size, a roll more than :data:`LOST_ROLL`
-    from its roll: a hand over the face with the face's eyes, say; a place more than :data:`LOST_REACH` of its
-    units away: a face behind a passing hand is still where it was, a skin-coloured thing elsewhere is not it)."""
-    if last is None:
-        return result.score
-    ratio = result.frame.unit / last.unit
-    roll = abs((result.frame.roll - last.roll + np.pi) % (2 * np.pi) - np.pi)
-    far = float(np.hypot(*(result.frame.origin - last.origin))) > LOST_REACH * last.unit
-    if not LOST_SIZES[0] < ratio < LOST_SIZES[1] or roll > LOST_ROLL or far:
-        return -np.inf
-    return result.score - resize_cost * abs(np.log(ratio))
 
 
 def mouth_offset(curves: np.ndarray, frame: FaceFrame, layout: np.ndarray, px: float) -> np.ndarray:
@@ -184,18 +166,19 @@ class Acquirer:
         self.landmark_wait = 0          # frames to wait before asking the landmark backend again
         self.cascade_wait = 0           # frames to wait before the whole frame's cascade runs again
 
-    def find(self, rgb: np.ndarray, last: FaceFrame | None = None) -> Measurement | None:
+    def find(self, rgb: np.ndarray, last: LostFace | None = None) -> Measurement | None:
         """The measurement of the candidate frame that looks most like a face, or None.
 
-        ``last``: the frame the face was followed in until now, if it was just lost (a candidate too, in the
-        light it was followed in). Then the search runs near it first (:func:`~.detect.search_area`: the skin
+        ``last``: the face, if it was just lost. Its last frame, and that frame at the size the face had, are
+        candidates too, in the light it was followed in; a candidate where it cannot be now is none
+        (:func:`~.refind.likeness`). The search runs near it first (:func:`~.detect.search_area`: the skin
         regions and the cascade's windows there), and over the whole frame only if no face is found near it.
         """
         cfg = self.tracker.config
         last_light = self.place.light
         best = None
         if last is not None:
-            best = self._search(rgb, last, last_light, search_area(last, rgb.shape))
+            best = self._search(rgb, last, last_light, search_area(last.frame, rgb.shape))
             if best is None or best.score < cfg.acquire.min_score:
                 best = None
                 self.place.light = last_light
@@ -214,7 +197,7 @@ class Acquirer:
                 best = self._settle(rgb, placed) or best
         return best
 
-    def _search(self, rgb: np.ndarray, last: FaceFrame | None, last_light: np.ndarray | None,
+    def _search(self, rgb: np.ndarray, last: LostFace | None, last_light: np.ndarray | None,
                 roi: tuple[int, int, int, int] | None) -> Measurement | None:
         """The best candidate of the whole frame or of its part ``roi`` (x0, y0, x1, y1), the light it is seen
         in left in the placement; or None."""
@@ -248,7 +231,7 @@ class Acquirer:
         boxes = np.array([b for b in boxes if max(_skin_share(rgb, b, k) for k in skins) >= WINDOW_SKIN]).reshape(-1, 4)
         hypotheses += [(None, f) for f in frames_of_boxes(boxes)]
         if last is not None:
-            hypotheses.insert(0, (last_light, last))
+            hypotheses[:0] = [(last_light, last.frame), (last_light, last.at_its_size())]
 
         def value(result: Measurement) -> float:
             lost = len(boxes) and not inside_box(result.frame, boxes)
@@ -267,7 +250,7 @@ class Acquirer:
         return best
 
     def refine(self, rgb: np.ndarray, candidates: list[FaceFrame],
-               last: FaceFrame | None = None) -> Measurement | None:
+               last: LostFace | None = None) -> Measurement | None:
         """Pull each candidate face frame onto the eyes; the result that looks most like a face
         (:func:`likeness` with ``last``; none a face just lost cannot move to), or None."""
         cost = self.tracker.config.acquire.resize_cost

@@ -18,8 +18,10 @@ import numpy as np
 
 from facepuppet.capture.color.config import FollowConfig
 from facepuppet.capture.color.face import CROP_EXTENT, FaceFrame, then_affine
+from facepuppet.capture.color.refind import LostFace
 
-__all__ = ["Follower", "FollowState", "ECC_EPS", "ECC_BLUR", "UNIT_JUMP", "UNIT_GAIN", "LOST_MEMORY", "OWN_LIKENESS"]
+__all__ = ["Follower", "FollowState", "ECC_EPS", "ECC_BLUR", "UNIT_JUMP", "UNIT_GAIN", "LOST_MEMORY", "OWN_LIKENESS",
+           "OWN_CHECKS"]
 
 log = logging.getLogger(__name__)
 
@@ -29,7 +31,8 @@ ECC_BLUR = 3             # pixels        Gaussian blur of the alignment's images
 UNIT_JUMP = (0.65, 1.5)  # ratio         size change from the slow reference that loses the face
 UNIT_GAIN = 0.05         # per frame     gain of the slow reference size
 LOST_MEMORY = 30         # frames        a lost face's last frame is searched near this long
-OWN_LIKENESS = 0.6       # fraction      of the face's best likeness a face found again must show at its first check
+OWN_LIKENESS = 0.6       # fraction      of the face's best likeness a face found again must show ...
+OWN_CHECKS = 3           # checks        ... at its first checks
 
 
 @dataclass
@@ -44,10 +47,11 @@ class FollowState:
     skin_found: bool = True                 # whether they did where the face was found
     dropped: FaceFrame | None = None        # the frame the face was last followed in, while it is lost
     lost_for: int = 0                       # frames since the face was lost
+    doubted: bool = False                   # it was lost because its crop no longer looked like a face
     score: float | None = None              # smoothed likeness of the followed crop
     score_ref: float | None = None          # the face's own likeness: the best smoothed one of this face
-    found_again: bool = False               # the face was found again after a loss and not checked since
-    tracked: int = 0                        # frames tracked
+    found_again: int = 0                    # checks left at which a face found again must look like itself
+    check_in: int = 1                       # frames to the next check of the likeness
     pose: object = None                     # the last head pose (the next solve starts there)
     turn_ms: int | None = None              # time of the last head-turn reading
 
@@ -66,20 +70,29 @@ class FollowState:
         self.unit_ref += UNIT_GAIN * (frame.unit - self.unit_ref)
         return True
 
+    def lost_face(self) -> LostFace | None:
+        """The face just lost (in this frame, or in the last :data:`LOST_MEMORY` frames) with the size it had
+        (the slow size reference), or None."""
+        last = self.frame or self.dropped
+        if last is None:
+            return None
+        return LostFace(last, self.unit_ref, 0 if self.frame is not None else self.lost_for)
+
     def still_like_a_face(self, score: float, config: FollowConfig) -> bool:
         """Now and then: whether the followed crop, of likeness ``score`` to a face, still looks like one (the
         likeness smoothed over checks).
 
-        The bar is ``config.min_followed_score``; at the first check after the face was found again,
-        :data:`OWN_LIKENESS` of the best this face has shown if higher (a face found again while a hand still
-        covered part of it may sit off the face, and looks less like it than the face did; another performer's
-        face may look little like the profile's layout all along, and expressions move the likeness of any face).
+        The bar is ``config.min_followed_score``; at the first :attr:`found_again` checks after the face was
+        found again (:data:`OWN_CHECKS`), :data:`OWN_LIKENESS` of the best this face has shown if higher (a face
+        found again while a hand still covered part of it may sit off the face, and looks less like it than the
+        face did, more so once the hand has gone; another performer's face may look little like the profile's
+        layout all along, and expressions move the likeness of any face).
         """
         self.score = score if self.score is None else 0.5 * (self.score + score)
         bar = config.min_followed_score
         if self.found_again and self.score_ref is not None:
             bar = max(bar, OWN_LIKENESS * self.score_ref)
-        self.found_again = False
+        self.found_again = max(int(self.found_again) - 1, 0)
         self.score_ref = self.score if self.score_ref is None else max(self.score_ref, self.score)
         if self.score < bar:
             log.debug("face lost: the followed crop no longer looks like a face (score %.2f)", self.score)

@@ -33,7 +33,7 @@ from facepuppet.capture.color.face import (
     same_frame,
     similarity_of_pairs,
 )
-from facepuppet.capture.color.follow import LOST_MEMORY, Follower, FollowState
+from facepuppet.capture.color.follow import LOST_MEMORY, OWN_CHECKS, Follower, FollowState
 from facepuppet.capture.color.glare import without_glare
 from facepuppet.capture.color.head_turn import apply_turn_model, turn_angles, turn_rotation
 from facepuppet.capture.color.jobs import wait_pending
@@ -41,6 +41,7 @@ from facepuppet.capture.color.likeness import FaceTemplate
 from facepuppet.capture.color.measure import Measurement, Placement
 from facepuppet.capture.color.outliner import Outliner
 from facepuppet.capture.color.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
+from facepuppet.capture.color.refind import LostFace
 from facepuppet.capture.color.rules import BOX_NAMES, move_boxes
 from facepuppet.capture.color.shape_models import FAMILIES
 from facepuppet.capture.color.smoothing import CurveSmoother
@@ -146,7 +147,7 @@ class ColorTracker:
         anchors_px = np.asarray((np.asarray(profile.anchors) - CROP_EXTENT[:2]) * px, dtype=float)
         self._place = Placement(anchors_px, anchors_px[:2].mean(axis=0),
                                 calibrated=config.landmarks.anchor_calibration <= 0)
-        self._follow = FollowState()
+        self._follow = FollowState(check_in=config.follow.check_every)
         #: Fresh searches for the face (acquisitions) since the tracker was made or reset.
         self.searches = 0
         self._follower = Follower(self._size, px, config.follow)
@@ -214,12 +215,11 @@ class ColorTracker:
             fol.misses = 0 if result.eyes_found else fol.misses + 1
             if not fol.still_the_face(result.frame, self._follower.correlation, cfg):
                 result = None
+        followed = result is not None
         if result is None:
-            # The frame the face was followed in until now is a candidate too, and the search starts near it:
-            # after a blink, a turn or a hand passing the face is usually still there.
-            # The frame the face was followed in until now (or, for a while after it was lost, last followed in)
-            # is a candidate too: after a blink, a turn or a hand passing, the face is usually still there.
-            result = self._acquire(rgb, last=fol.frame or fol.dropped)
+            # The face followed until now (or, for a while after it was lost, last followed) is searched near
+            # where it was, at the size it had: after a blink, a turn or a hand passing, it is usually still there.
+            result = self._acquire(rgb, last=fol.lost_face())
         if result is None:
             if fol.frame is not None:
                 fol.dropped, fol.lost_for = fol.frame, 0
@@ -230,10 +230,13 @@ class ColorTracker:
             return FrameFeatures.lost(len(CURVE_NAMES), len(POINT_NAMES))
         fol.dropped = None
         curves, fol.frame, fol.correction, self.seen = result.curves, result.frame, result.correction, result.seen
-        fol.tracked += 1
-        if fol.tracked % cfg.check_every == 0:
+        # Now and then whether the crop still looks like a face; a face found again first at the next frame it is
+        # followed in (it may sit off the face: the brows taken for its eyes, say).
+        fol.check_in = 1 if fol.found_again and not followed else fol.check_in - 1
+        if fol.check_in <= 0:
+            fol.check_in = cfg.check_every
             if not fol.still_like_a_face(self._template.score(*self._last_measured), cfg):
-                fol.frame, fol.dropped = None, fol.frame
+                fol.frame, fol.dropped, fol.lost_for, fol.doubted = None, fol.frame, 0, True
         curves = self._smoother(curves, result.frame, timestamp_ms)
         return self._features(curves, (w, h), self._turn(timestamp_ms))
 
@@ -416,8 +419,11 @@ class ColorTracker:
         return move_boxes(self._box_table, _SHIFTED, _MOUTH_BOX, self._place.shift, self._place.mouth_offset,
                           self._place.scale, self._place.anchor_mid, *self._size)
 
-    def _acquire(self, rgb: np.ndarray, last: FaceFrame | None = None) -> Measurement | None:
-        """Find the face afresh (:meth:`~.acquire.Acquirer.find`), the filters and the alignment restarted."""
+    def _acquire(self, rgb: np.ndarray, last: LostFace | None = None) -> Measurement | None:
+        """Find the face afresh (:meth:`~.acquire.Acquirer.find`; ``last``: the face just lost, if any), the
+        filters and the alignment restarted. A face found again keeps its size reference (it was found at about
+        that size, :mod:`.refind`); one found where it was lost takes its likeness there as its own, unless it was
+        lost because it no longer looked like a face."""
         fol = self._follow
         self.searches += 1
         self._smoother.reset()
@@ -429,11 +435,12 @@ class ColorTracker:
         best = self._acquirer.find(rgb, last)
         if best is None:
             return None
-        fol.found_again = last is not None
-        if last is not None and fol.score_ref is not None and same_frame(best.frame, last):
+        fol.found_again = OWN_CHECKS if last is not None else 0
+        if last is not None and fol.score_ref is not None and same_frame(best.frame, last.frame) and not fol.doubted:
             fol.score_ref = min(fol.score_ref, best.score)      # found where it was: that is how it looks now
+        fol.doubted = False
         self._follower.start(rgb, best.frame)
-        fol.unit_ref = best.frame.unit
+        fol.unit_ref = best.frame.unit if last is None else fol.unit_ref
         fol.skin_found = self._skin_ok(best.seen[0])
         fol.score = None
         return best

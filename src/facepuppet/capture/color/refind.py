@@ -1,0 +1,88 @@
+"""Finding a face just lost again: where, at what size and roll a face that was followed until a few frames ago
+can be now (:class:`LostFace`, :func:`plausible`), and how a candidate is scored against it (:func:`likeness`).
+
+A face is not suddenly half its size, nor somewhere else: behind a passing hand it is still where it was, at the
+size it had. The size it had is the followed face's slow size reference (:attr:`.follow.FollowState.unit_ref`),
+not the size of the last frame followed, which a hand arriving over the face may already have pulled off. The
+sizes allowed widen with the frames the face has been lost (a performer walking closer while hidden), up to
+:data:`LOST_SIZES`; after :data:`~.follow.LOST_MEMORY` frames the face is searched afresh anywhere.
+
+Conventions: face frames in image pixels (:class:`~facepuppet.capture.color.face.FaceFrame`); a face unit is the
+eye-centre distance; sizes compared as natural logs of their ratio.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from facepuppet.capture.color.face import FaceFrame
+from facepuppet.capture.color.measure import Measurement
+
+__all__ = ["LostFace", "LOST_SIZES", "LOST_ROLL", "LOST_REACH", "REFIND_SIZE", "REFIND_DRIFT", "plausible",
+           "likeness", "size_slack"]
+
+# Tuning constants                      unit          what it does
+LOST_SIZES = (0.65, 1.5)                # ratio         widest sizes a face just lost is found again at, of its size
+LOST_ROLL = 0.5                         # radians       most roll a face just lost may be found again with
+LOST_REACH = 2.0                        # face units    farthest from where a face was just lost it is found again
+REFIND_SIZE = 0.15                      # log size      most size change of a face found again at once ...
+REFIND_DRIFT = 0.01                     # log size      ... widened by this per frame it has been lost
+
+
+@dataclass(frozen=True)
+class LostFace:
+    """A face followed until a few frames ago.
+
+    Attributes
+    ----------
+    frame : FaceFrame
+        The frame it was last followed in (image pixels).
+    unit : float
+        The size it had: its slow size reference while it was followed (image pixels per face unit).
+    frames : int
+        Frames since it was lost (0: lost in this frame).
+    """
+
+    frame: FaceFrame
+    unit: float
+    frames: int = 0
+
+    def at_its_size(self) -> FaceFrame:
+        """The last frame scaled about its origin to the size the face had (where a hand arriving over the face
+        pulled the last frame off its size, the face is there at this one)."""
+        return FaceFrame(self.frame.origin.copy(), self.frame.axis * (self.unit / self.frame.unit))
+
+
+def size_slack(frames: int) -> float:
+    """Most absolute log size change of a face lost ``frames`` frames ago: :data:`REFIND_SIZE` plus
+    :data:`REFIND_DRIFT` per frame, at most :data:`LOST_SIZES` allows."""
+    widest = min(-np.log(LOST_SIZES[0]), np.log(LOST_SIZES[1]))
+    return float(min(REFIND_SIZE + REFIND_DRIFT * max(frames, 0), widest))
+
+
+def plausible(frame: FaceFrame, lost: LostFace) -> bool:
+    """Whether a face lost (``lost``) can be in ``frame`` now: its size within :func:`size_slack` of the size it
+    had, its roll within :data:`LOST_ROLL` of its last frame's, its origin within :data:`LOST_REACH` of its units
+    of its last frame's (a hand over the face with the face's eyes, a smaller face-like thing beside it, a
+    skin-coloured thing elsewhere are not it)."""
+    last = lost.frame
+    if abs(np.log(frame.unit / lost.unit)) > size_slack(lost.frames):
+        return False
+    roll = abs((frame.roll - last.roll + np.pi) % (2 * np.pi) - np.pi)
+    far = float(np.hypot(*(frame.origin - last.origin))) > LOST_REACH * lost.unit
+    return roll <= LOST_ROLL and not far
+
+
+def likeness(result: Measurement, lost: LostFace | FaceFrame | None, resize_cost: float) -> float:
+    """How much a measurement's crop looks like a face (its score), less ``resize_cost`` per unit of absolute log
+    size change from the size the face just lost had; -inf where that face cannot be (:func:`plausible`).
+    ``lost``: the face just lost (a bare frame: lost in this frame, at that frame's size), or None (anywhere)."""
+    if lost is None:
+        return result.score
+    if isinstance(lost, FaceFrame):
+        lost = LostFace(lost, lost.unit)
+    if not plausible(result.frame, lost):
+        return -np.inf
+    return result.score - resize_cost * abs(np.log(result.frame.unit / lost.unit))
