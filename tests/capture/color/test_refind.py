@@ -105,7 +105,8 @@ def test_a_hidden_face_is_not_found_again_on_a_smaller_face_beside_it(assets):
     for i, rgb in enumerate(frames):
         face, _ = placed(rgb, scale, corner)
         box = np.zeros(stage.shape[:2], np.float32)
-        box[int(corner[1]):int(corner[1] + scale * rgb.shape[0]), int(corner[0]):int(corner[0] + scale * rgb.shape[1])] = 1
+        (x0, y0), (x1, y1) = corner.astype(int), (corner + scale * np.array(rgb.shape[1::-1])).astype(int)
+        box[y0:y1, x0:x1] = 1
         f = clean.track(np.clip(box[..., None] * face + (1 - box[..., None]) * stage, 0, 255).astype(np.uint8), 66 * i)
         assert f.valid, i
         ref.append(_eyes(f.curves))
