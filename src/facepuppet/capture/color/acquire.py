@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 
 from facepuppet.capture.color.config import ColorTrackerConfig
-from facepuppet.capture.color.detect import face_boxes, frames_of_boxes, inside_box, search_area
+from facepuppet.capture.color.detect import FaceWindow, face_windows, search_area, supported
 from facepuppet.capture.color.eye_anchors import (
     calibrated_anchors,
     eye_centres_of,
@@ -44,7 +44,7 @@ from facepuppet.capture.curves import CURVE_NAMES, bezier_points
 
 __all__ = ["Acquirer", "Measurer", "CANDIDATE_SHIFTS", "CANDIDATE_SCALES", "LIGHT_PERCENTILE", "LIGHT_TOP",
            "MOUTH_OFFSET_LIMIT", "MIN_UNIT", "LOST_REACH", "GLABELLA",
-           "GLABELLA_SKIN", "REFINE_STEPS", "SAME_FACE", "ANCHOR_STEPS", "ANCHOR_TOLERANCE",
+           "GLABELLA_SKIN", "REFINE_STEPS", "REFINE_SIZES", "SAME_FACE", "ANCHOR_STEPS", "ANCHOR_TOLERANCE",
            "candidate_frames", "fit_light", "likeness", "mouth_offset", "skin_between_brows"]
 
 log = logging.getLogger(__name__)
@@ -58,6 +58,7 @@ MOUTH_OFFSET_LIMIT = 0.3                # face units    farthest the backend's m
 MOUTH_SAMPLES = 16                      # points        along each lip curve averaged for the mouth's place
 MIN_UNIT = 6                            # image pixels  smallest face (eye-centre distance) tracked
 REFINE_STEPS = 3                        # steps         eye-search steps pulling a candidate onto the eyes
+REFINE_SIZES = (0.8, 1.25)              # ratio         sizes the eye search may pull a candidate to, of its own
 SAME_FACE = (0.25, 0.2)                 # face units, log size: the landmark backend's face is the one acquired
 ANCHOR_STEPS = 4                        # steps         most eye searches to find the eye blobs' fixed point
 ANCHOR_TOLERANCE = 0.25                 # crop pixels   step below which the fixed point is found
@@ -111,9 +112,13 @@ def skin_between_brows(crop: np.ndarray, skins: list[SkinModel], px: float) -> b
     return any(skin_fraction(crop, box, s.table()) > GLABELLA_SKIN for s in skins)
 
 
-def _skin_share(rgb: np.ndarray, box: np.ndarray, skin) -> float:
-    """Share of the middle half (each way) of a window (x, y, w, h) the skin model takes for skin."""
-    x, y, w, h = (float(v) for v in box)
+def _skin_share(rgb: np.ndarray, win: FaceWindow, skin) -> float:
+    """Share of the middle half (each way, upright) of a window the skin model takes for skin."""
+    w = h = win.width
+    back = cv2.invertAffineTransform(win.to_box)
+    bx, by, bw, bh = (float(v) for v in win.box)
+    cx, cy = back[:, :2] @ [bx + bw / 2.0, by + bh / 2.0] + back[:, 2]
+    x, y = cx - w / 2.0, cy - h / 2.0
     H, W = rgb.shape[:2]
     x0, x1 = int(max(0, x + 0.25 * w)), int(min(W, x + 0.75 * w))
     y0, y1 = int(max(0, y + 0.25 * h)), int(min(H, y + 0.75 * h))
@@ -202,7 +207,6 @@ class Acquirer:
         """The best candidate of the whole frame or of its part ``roi`` (x0, y0, x1, y1), the light it is seen
         in left in the placement; or None."""
         place, cfg = self.place, self.tracker.config
-        cost = cfg.acquire.resize_cost
         # Skin regions of the frame as filmed and of the frame with its light's colour and level evened out
         # (a warm, cool or dim light moves skin out of the skin model, or other things into it), by the profile's
         # skin model and by the generic one (the profile's is one performer's skin in one light). The light of
@@ -211,53 +215,67 @@ class Acquirer:
         best, light, seen = None, None, []
         skins = [self.tracker.profile.skin]
         skins += [SkinModel()] if skins[0] != SkinModel() else []
-        hypotheses = []
+        hypotheses, lights = [], []
         for M in (None, light_balance(rgb)):
             shown = rgb if M is None else cv2.transform(rgb, M)
+            lights.append((M, shown))
             for skin in skins:
                 frame = find_face(shown, skin, roi=roi)
                 if frame is not None:
                     hypotheses.append((M, frame))
-        # Windows with a face's pattern of dark features: candidates of their own, and the support a candidate
-        # needs in a scene the skin model cannot tell from skin. Only where a skin model finds some skin region
-        # (skin-coloured scenes included): without any, the landmark backend places the face; and not when a
-        # landmark model is given explicitly (it places the faces the skin model misses).
+        # Windows with a face's pattern of dark features, upright or tilted: candidates of their own, and the
+        # support a candidate needs in a scene the skin model cannot tell from skin (skin in the frame as filmed or
+        # with its light evened out: a cool or dim light moves a face's skin out of the skin model; a window is
+        # tried in the light its skin shows most in). Only where a skin model finds some skin region (skin-coloured
+        # scenes included): without any, the landmark backend places the face; and not when a landmark model is
+        # given explicitly (it places the faces the skin model misses).
         use = cfg.acquire.cascade and hypotheses and cfg.landmarks.model is None
         if use and roi is None:
             # Over the whole frame the cascade costs most (all its passes run where it finds no face): while no
             # face is found it runs every CASCADE_EVERY frames only.
             use, self.cascade_wait = self.cascade_wait <= 0, max(self.cascade_wait - 1, 0)
-        boxes = face_boxes(rgb, roi) if use else np.zeros((0, 4))
-        boxes = np.array([b for b in boxes if max(_skin_share(rgb, b, k) for k in skins) >= WINDOW_SKIN]).reshape(-1, 4)
-        hypotheses += [(None, f) for f in frames_of_boxes(boxes)]
+        windows = []
+        for win in face_windows(rgb, roi) if use else []:
+            share, M = max(((max(_skin_share(x, win, k) for k in skins), i) for i, (_, x) in enumerate(lights)))
+            if share >= WINDOW_SKIN:
+                windows.append(win)
+                hypotheses.append((lights[M][0], win.frame()))
         if last is not None:
             hypotheses[:0] = [(last_light, last.frame), (last_light, last.at_its_size())]
 
         def value(result: Measurement) -> float:
-            lost = len(boxes) and not inside_box(result.frame, boxes)
-            return likeness(result, last, cost) - (cfg.acquire.unsupported_cost if lost else 0.0)
+            return self.value(result, last, windows)
 
         for M, frame in hypotheses:
             if frame.unit < MIN_UNIT or any(same_frame(frame, f) for f in seen):
                 continue
             seen.append(frame)
             place.light = M
-            got = self.refine(rgb, candidate_frames(frame), last)
+            got = self.refine(rgb, candidate_frames(frame), last, windows)
             if got is not None and (best is None or value(got) > value(best)):
                 best, light = got, M
         place.light = (light if light is None or best is None
                        else fit_light(rgb, best.frame, light, cfg.measure.px, self.tracker.crop_size))
         return best
 
-    def refine(self, rgb: np.ndarray, candidates: list[FaceFrame],
-               last: LostFace | None = None) -> Measurement | None:
-        """Pull each candidate face frame onto the eyes; the result that looks most like a face
-        (:func:`likeness` with ``last``; none a face just lost cannot move to), or None."""
+    def value(self, result: Measurement, last: LostFace | None = None, windows: list[FaceWindow] = ()) -> float:
+        """How much a candidate looks like the face sought: :func:`likeness` with ``last``, less
+        ``acquire.unsupported_cost`` when the cascade found windows but none holds it (:func:`~.detect.supported`:
+        it is not where a window's face is, or not of its size)."""
+        cfg = self.tracker.config.acquire
+        lost = bool(windows) and not supported(result.frame, windows)
+        return likeness(result, last, cfg.resize_cost) - (cfg.unsupported_cost if lost else 0.0)
+
+    def refine(self, rgb: np.ndarray, candidates: list[FaceFrame], last: LostFace | None = None,
+               windows: list[FaceWindow] = ()) -> Measurement | None:
+        """Pull each candidate face frame onto the eyes; the result of most :meth:`value` (with ``last`` and the
+        cascade's ``windows``; none a face just lost cannot move to, none the eye search pulled outside
+        :data:`REFINE_SIZES` of the candidate's size: a face's brows and mouth taken for its eyes), or None."""
         cost = self.tracker.config.acquire.resize_cost
         skinless = self.tracker.config.acquire.min_skinless_score
         best = None
         for cand in candidates:
-            result = None
+            result, start = None, cand.unit
             for step in range(REFINE_STEPS):
                 result = self.tracker.measure(rgb, cand, follow=False, gain=1.0, outline=step == REFINE_STEPS - 1)
                 if result is None:
@@ -265,10 +283,12 @@ class Acquirer:
                 cand = result.frame
             if result is None or not result.eyes_found or not np.isfinite(likeness(result, last, cost)):
                 continue
+            if not REFINE_SIZES[0] <= result.frame.unit / start <= REFINE_SIZES[1]:
+                continue
             if not self.place.skinless_ok and result.score < skinless and not skin_between_brows(
                     result.seen[0], [self.tracker.profile.skin, SkinModel()], self.tracker.config.measure.px):
                 continue
-            if best is None or likeness(result, last, cost) > likeness(best, last, cost):
+            if best is None or self.value(result, last, windows) > self.value(best, last, windows):
                 best = result
         return best
 

@@ -9,12 +9,19 @@ on the grey image; each gives a first face frame from the average place of the e
 tracker then pulls onto the eyes and scores like any other candidate
 (:class:`~facepuppet.capture.color.acquire.Acquirer`).
 
-Conventions: RGB uint8 frames; boxes (x, y, w, h) and face frames in image pixels.
+The cascade finds upright faces, give or take some 15 degrees of roll; a tilted head is found on copies of the
+image turned by :data:`TILTS` (:func:`face_windows`), each window then a turned box (:class:`FaceWindow`). A window
+also says how large the face in it is: the eye-centre distance is :data:`BOX_UNIT` of its width, so a candidate
+pulled onto the brows and chin of a face is not supported by the window of that face (:func:`supported`).
+
+Conventions: RGB uint8 frames; boxes (x, y, w, h) and face frames in image pixels; tilts in degrees,
+counter-clockwise in the image (OpenCV's :func:`cv2.getRotationMatrix2D`).
 """
 
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
@@ -23,8 +30,8 @@ import numpy as np
 
 from facepuppet.capture.color.face import FaceFrame
 
-__all__ = ["CASCADE_FILE", "WINDOW", "FACE_SIZES", "EYE_PLACES", "face_boxes", "frames_of_boxes", "inside_box",
-           "search_area"]
+__all__ = ["CASCADE_FILE", "WINDOW", "FACE_SIZES", "EYE_PLACES", "TILTS", "BOX_UNIT", "FaceWindow", "face_boxes",
+           "face_windows", "frames_of_boxes", "inside_box", "supported", "search_area"]
 
 log = logging.getLogger(__name__)
 
@@ -40,6 +47,11 @@ SCALE_STEP = 1.15               # ratio         between the window sizes tried
 MAX_FACES = 3                   # faces         largest windows kept
 #: Where the eye centres sit in a detection window, (x, y) shares of its width and height (right eye, left eye).
 EYE_PLACES = ((0.31, 0.40), (0.69, 0.40))
+#: Turns of the image the cascade searches (degrees): upright, and tilted heads either way.
+TILTS = (0.0, 25.0, -25.0)
+#: A window's face size: its eye-centre distance from this share of the window's width to that (the cascade's
+#: windows of the shared performers: 0.32-0.43).
+BOX_UNIT = (0.28, 0.46)
 #: The area searched around a face frame, in face units (x0, y0, x1, y1): the face and its own size around it.
 AROUND = (-3.2, -3.0, 3.2, 4.2)
 
@@ -65,37 +77,119 @@ def search_area(frame: FaceFrame, shape: tuple[int, ...]) -> tuple[int, int, int
             min(w, int(ox + AROUND[2] * u) + 1), min(h, int(oy + AROUND[3] * u) + 1))
 
 
-def face_boxes(rgb: np.ndarray, roi: tuple[int, int, int, int] | None = None) -> np.ndarray:
-    """Windows (N, 4) float (x, y, w, h), image pixels, largest first, that show a frontal face's pattern of
-    dark features, in the whole image or its part ``roi`` (x0, y0, x1, y1); (0, 4) when none is found or the
-    cascade is not installed.
-
-    The search runs coarse to fine (:data:`FACE_SIZES`): large faces on a small copy of the image first, the
-    smaller ones on a larger copy only if none was found; its cost grows with the pixels searched.
-    """
+def _passes(grey: np.ndarray) -> np.ndarray:
+    """Windows (N, 4) float (x, y, w, h) of the grey image (H, W) uint8, largest first (:data:`FACE_SIZES`)."""
     cascade = _cascade()
-    if cascade is None:
+    h, w = grey.shape[:2]
+    if cascade is None or w < WINDOW or h < WINDOW:
         return np.zeros((0, 4))
-    h, w = rgb.shape[:2]
-    x0, y0, x1, y1 = (0, 0, w, h) if roi is None else roi
-    if x1 - x0 < WINDOW or y1 - y0 < WINDOW:
-        return np.zeros((0, 4))
-    grey = cv2.cvtColor(np.ascontiguousarray(rgb[y0:y1, x0:x1]), cv2.COLOR_RGB2GRAY)
-    side = min(x1 - x0, y1 - y0)
+    side = min(w, h)
     larger = None
     for share in FACE_SIZES:
         f = min(1.0, WINDOW / (share * side))
-        g = grey if f >= 1.0 else cv2.resize(grey, (max(1, round((x1 - x0) * f)), max(1, round((y1 - y0) * f))),
+        g = grey if f >= 1.0 else cv2.resize(grey, (max(1, round(w * f)), max(1, round(h * f))),
                                              interpolation=cv2.INTER_AREA)
         g = cv2.equalizeHist(g)
         top = (int(larger * f * SCALE_STEP) + 1,) * 2 if larger else (0, 0)
         found = cascade.detectMultiScale(g, scaleFactor=SCALE_STEP, minNeighbors=NEIGHBOURS,
                                          minSize=(WINDOW, WINDOW), maxSize=top)
         if len(found):
-            boxes = np.asarray(found, dtype=float) / f + [x0, y0, 0, 0]
+            boxes = np.asarray(found, dtype=float) / f
             return boxes[np.argsort(-boxes[:, 2])][:MAX_FACES]
-        larger = share * side          # image pixels: the faces the coarser passes looked for
+        larger = share * side          # pixels: the faces the coarser passes looked for
     return np.zeros((0, 4))
+
+
+def _area(rgb: np.ndarray, roi: tuple[int, int, int, int] | None) -> tuple[int, int, int, int]:
+    h, w = rgb.shape[:2]
+    return (0, 0, w, h) if roi is None else roi
+
+
+def face_boxes(rgb: np.ndarray, roi: tuple[int, int, int, int] | None = None) -> np.ndarray:
+    """Windows (N, 4) float (x, y, w, h), image pixels, largest first, that show an upright frontal face's pattern
+    of dark features, in the whole image or its part ``roi`` (x0, y0, x1, y1); (0, 4) when none is found or the
+    cascade is not installed.
+
+    The search runs coarse to fine (:data:`FACE_SIZES`): large faces on a small copy of the image first, the
+    smaller ones on a larger copy only if none was found; its cost grows with the pixels searched.
+    """
+    x0, y0, x1, y1 = _area(rgb, roi)
+    if _cascade() is None or x1 - x0 < WINDOW or y1 - y0 < WINDOW:
+        return np.zeros((0, 4))
+    grey = cv2.cvtColor(np.ascontiguousarray(rgb[y0:y1, x0:x1]), cv2.COLOR_RGB2GRAY)
+    boxes = _passes(grey)
+    return boxes + [x0, y0, 0, 0] if len(boxes) else boxes
+
+
+@dataclass(frozen=True)
+class FaceWindow:
+    """A cascade window found on a turned copy of the image.
+
+    Attributes
+    ----------
+    box : (4,) float
+        (x, y, w, h) in the turned copy's pixels.
+    to_box : (2, 3) float
+        Affine map from image pixels to the turned copy's pixels.
+    """
+
+    box: np.ndarray
+    to_box: np.ndarray
+
+    @property
+    def width(self) -> float:
+        """The window's width, pixels (the image's and the copy's are the same size)."""
+        return float(self.box[2])
+
+    def frame(self) -> FaceFrame:
+        """The first face frame of the window: its eyes at :data:`EYE_PLACES`, in image pixels."""
+        x, y, w, h = (float(v) for v in self.box)
+        back = cv2.invertAffineTransform(self.to_box)
+        (rx, ry), (lx, ly) = EYE_PLACES
+        eyes = np.array([[x + rx * w, y + ry * h], [x + lx * w, y + ly * h]]) @ back[:, :2].T + back[:, 2]
+        return FaceFrame.from_eyes(eyes[0], eyes[1])
+
+    def holds(self, frame: FaceFrame) -> bool:
+        """Whether the face frame's origin lies in the window and its eye-centre distance is :data:`BOX_UNIT` of
+        the window's width."""
+        ox, oy = self.to_box[:, :2] @ frame.origin + self.to_box[:, 2]
+        x, y, w, h = (float(v) for v in self.box)
+        return bool(x <= ox <= x + w and y <= oy <= y + h and BOX_UNIT[0] * w <= frame.unit <= BOX_UNIT[1] * w)
+
+
+def face_windows(rgb: np.ndarray, roi: tuple[int, int, int, int] | None = None,
+                 tilts: tuple[float, ...] = TILTS) -> list[FaceWindow]:
+    """The cascade's windows (:func:`face_boxes`) on copies of the image, or of its part ``roi`` (x0, y0, x1, y1),
+    turned by each of ``tilts`` (degrees) about the part's centre: faces upright and tilted either way, each
+    tilt's largest first; [] when none is found or the cascade is not installed.
+
+    Each turned copy is searched like the upright image (its cost, once per tilt); a turned copy is grown to hold
+    the whole part.
+    """
+    x0, y0, x1, y1 = _area(rgb, roi)
+    if _cascade() is None or x1 - x0 < WINDOW or y1 - y0 < WINDOW:
+        return []
+    grey = cv2.cvtColor(np.ascontiguousarray(rgb[y0:y1, x0:x1]), cv2.COLOR_RGB2GRAY)
+    h, w = grey.shape
+    out = []
+    for tilt in tilts:
+        T = cv2.getRotationMatrix2D((w / 2.0, h / 2.0), float(tilt), 1.0)
+        c, s = abs(T[0, 0]), abs(T[0, 1])
+        W, H = int(np.ceil(w * c + h * s)), int(np.ceil(w * s + h * c))
+        T[:, 2] += [(W - w) / 2.0, (H - h) / 2.0]
+        turned = grey if tilt == 0 else cv2.warpAffine(grey, T, (W, H), flags=cv2.INTER_LINEAR,
+                                                       borderMode=cv2.BORDER_REFLECT)
+        if tilt == 0:
+            T = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+        to_box = T.copy()
+        to_box[:, 2] -= T[:, :2] @ [x0, y0]           # image pixels -> the turned copy's pixels
+        out += [FaceWindow(b, to_box) for b in _passes(turned)]
+    return out
+
+
+def supported(frame: FaceFrame, windows: list[FaceWindow]) -> bool:
+    """Whether one of the windows holds the face frame (:meth:`FaceWindow.holds`)."""
+    return any(win.holds(frame) for win in windows)
 
 
 def frames_of_boxes(boxes: np.ndarray) -> list[FaceFrame]:
@@ -109,9 +203,9 @@ def frames_of_boxes(boxes: np.ndarray) -> list[FaceFrame]:
 
 def inside_box(frame: FaceFrame, boxes: np.ndarray) -> bool:
     """Whether the face frame's origin (between the eyes) lies in one of the windows (N, 4) and its size fits
-    it (eye-centre distance between a fifth and two thirds of the window's width)."""
+    it (eye-centre distance :data:`BOX_UNIT` of the window's width)."""
     ox, oy = (float(v) for v in frame.origin)
     for x, y, w, h in np.asarray(boxes, dtype=float):
-        if x <= ox <= x + w and y <= oy <= y + h and 0.2 * w <= frame.unit <= 0.67 * w:
+        if x <= ox <= x + w and y <= oy <= y + h and BOX_UNIT[0] * w <= frame.unit <= BOX_UNIT[1] * w:
             return True
     return False
