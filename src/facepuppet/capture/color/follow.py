@@ -20,8 +20,8 @@ from facepuppet.capture.color.config import FollowConfig
 from facepuppet.capture.color.face import CROP_EXTENT, FaceFrame, then_affine
 from facepuppet.capture.color.refind import LostFace
 
-__all__ = ["Follower", "FollowState", "ECC_EPS", "ECC_BLUR", "UNIT_JUMP", "UNIT_GAIN", "LOST_MEMORY", "OWN_LIKENESS",
-           "OWN_CHECKS"]
+__all__ = ["Follower", "FollowState", "ECC_EPS", "ECC_BLUR", "UNIT_JUMP", "UNIT_GAIN", "FRAME_MS", "LOST_MEMORY",
+           "OWN_LIKENESS", "OWN_CHECKS"]
 
 log = logging.getLogger(__name__)
 
@@ -29,8 +29,9 @@ log = logging.getLogger(__name__)
 ECC_EPS = 1e-3           # correlation   the alignment's convergence tolerance (ECC)
 ECC_BLUR = 3             # pixels        Gaussian blur of the alignment's images (ECC)
 UNIT_JUMP = (0.65, 1.5)  # ratio         size change from the slow reference that loses the face
-UNIT_GAIN = 0.05         # per frame     gain of the slow reference size
-LOST_MEMORY = 30         # frames        a lost face's last frame is searched near this long
+UNIT_GAIN = 0.05         # per frame     gain of the slow reference size, per FRAME_MS of time followed
+FRAME_MS = 1000.0 / 30   # milliseconds  the frame time UNIT_GAIN is given for
+LOST_MEMORY = 1000       # milliseconds  a lost face's last frame is searched near this long
 OWN_LIKENESS = 0.6       # fraction      of the face's best likeness a face found again must show ...
 OWN_CHECKS = 3           # checks        ... at its first checks
 
@@ -46,7 +47,8 @@ class FollowState:
     skin: bool = True                       # whether the last measured crop's cheeks looked like skin
     skin_found: bool = True                 # whether they did where the face was found
     dropped: FaceFrame | None = None        # the frame the face was last followed in, while it is lost
-    lost_for: int = 0                       # frames since the face was lost
+    lost_ms: float = 0.0                    # time the face was lost at, milliseconds
+    ref_ms: float | None = None             # time the slow size reference was last moved at, milliseconds
     doubted: bool = False                   # it was lost because its crop no longer looked like a face
     score: float | None = None              # smoothed likeness of the followed crop
     score_ref: float | None = None          # the face's own likeness: the best smoothed one of this face
@@ -55,28 +57,41 @@ class FollowState:
     pose: object = None                     # the last head pose (the next solve starts there)
     turn_ms: int | None = None              # time of the last head-turn reading
 
-    def still_the_face(self, frame: FaceFrame, correlation: float | None, config: FollowConfig) -> bool:
+    def still_the_face(self, frame: FaceFrame, correlation: float | None, config: FollowConfig,
+                       ms: float | None = None) -> bool:
         """Whether the evidence of the face itself says the followed face (now in ``frame``) is still there: the
         crop's alignment on the reference crop of the acquisition succeeded and matches it (``correlation``,
         :attr:`Follower.correlation`; closer where the cheeks no longer look like skin though they did), the
         eyes were found within the last ``max_misses`` frames, and the face's size kept near its slow
-        reference (which then follows it)."""
+        reference (which then follows it, by :data:`UNIT_GAIN` per :data:`FRAME_MS` since it last moved: as
+        fast in time whatever the frames skipped; ``ms``: this frame's time, None: one frame later)."""
         bar = config.min_correlation if self.skin or not self.skin_found else config.skinless_correlation
         if correlation is None or correlation < bar:
             log.debug("face lost: its crop no longer matches the reference (correlation %s)", correlation)
             return False
         if self.misses > config.max_misses or not UNIT_JUMP[0] < frame.unit / self.unit_ref < UNIT_JUMP[1]:
             return False
-        self.unit_ref += UNIT_GAIN * (frame.unit - self.unit_ref)
+        frames = 1.0 if ms is None or self.ref_ms is None else max(ms - self.ref_ms, 0.0) / FRAME_MS
+        self.ref_ms = ms
+        self.unit_ref += (1.0 - (1.0 - UNIT_GAIN) ** frames) * (frame.unit - self.unit_ref)
         return True
 
-    def lost_face(self) -> LostFace | None:
-        """The face just lost (in this frame, or in the last :data:`LOST_MEMORY` frames) with the size it had
-        (the slow size reference), or None."""
+    def lost_face(self, ms: float) -> LostFace | None:
+        """The face just lost (in this frame, of time ``ms``, or in the last :data:`LOST_MEMORY` milliseconds) with
+        the size it had (the slow size reference), or None."""
         last = self.frame or self.dropped
         if last is None:
             return None
-        return LostFace(last, self.unit_ref, 0 if self.frame is not None else self.lost_for)
+        return LostFace(last, self.unit_ref, 0.0 if self.frame is not None else max(ms - self.lost_ms, 0.0))
+
+    def drop(self, ms: float, doubted: bool = False) -> None:
+        """The face is lost in the frame of time ``ms`` (``doubted``: its crop no longer looked like a face); its
+        last frame is kept for a while (:meth:`lost_face`)."""
+        if self.frame is not None:
+            self.dropped, self.lost_ms = self.frame, ms
+        self.frame, self.doubted, self.ref_ms = None, self.doubted or doubted, None
+        if ms - self.lost_ms > LOST_MEMORY:
+            self.dropped = self.score_ref = None
 
     def still_like_a_face(self, score: float, config: FollowConfig) -> bool:
         """Now and then: whether the followed crop, of likeness ``score`` to a face, still looks like one (the

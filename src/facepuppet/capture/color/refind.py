@@ -3,9 +3,13 @@ can be now (:class:`LostFace`, :func:`plausible`), and how a candidate is scored
 
 A face is not suddenly half its size, nor somewhere else: behind a passing hand it is still where it was, at the
 size it had. The size it had is the followed face's slow size reference (:attr:`.follow.FollowState.unit_ref`),
-not the size of the last frame followed, which a hand arriving over the face may already have pulled off. The
-sizes allowed widen with the frames the face has been lost (a performer walking closer while hidden), up to
-:data:`LOST_SIZES`; after :data:`~.follow.LOST_MEMORY` frames the face is searched afresh anywhere.
+not the size of the last frame followed, which a hand arriving over the face may already have pulled off. A
+face found again may be larger than that more than smaller (:data:`REFIND_SIZES`): the reference lags a face
+coming closer, and the eye search's size of a face just found is noisy, while the wrong faces to avoid (a
+smaller copy beside it, a face in a poster) are smaller. The sizes allowed widen with the time the face has been
+lost (:data:`REFIND_DRIFT`: a performer walking closer while hidden; in milliseconds, whatever the frame rate or
+the frames skipped), up to :data:`LOST_SIZES`; after :data:`~.follow.LOST_MEMORY` the face is searched afresh
+anywhere.
 
 Conventions: face frames in image pixels (:class:`~facepuppet.capture.color.face.FaceFrame`); a face unit is the
 eye-centre distance; sizes compared as natural logs of their ratio.
@@ -20,15 +24,15 @@ import numpy as np
 from facepuppet.capture.color.face import FaceFrame
 from facepuppet.capture.color.measure import Measurement
 
-__all__ = ["LostFace", "LOST_SIZES", "LOST_ROLL", "LOST_REACH", "REFIND_SIZE", "REFIND_DRIFT", "plausible",
-           "likeness", "size_slack"]
+__all__ = ["LostFace", "LOST_SIZES", "LOST_ROLL", "LOST_REACH", "REFIND_SIZES", "REFIND_DRIFT", "plausible",
+           "likeness", "size_band"]
 
 # Tuning constants                      unit          what it does
 LOST_SIZES = (0.65, 1.5)                # ratio         widest sizes a face just lost is found again at, of its size
 LOST_ROLL = 0.5                         # radians       most roll a face just lost may be found again with
 LOST_REACH = 2.0                        # face units    farthest from where a face was just lost it is found again
-REFIND_SIZE = 0.15                      # log size      most size change of a face found again at once ...
-REFIND_DRIFT = 0.01                     # log size      ... widened by this per frame it has been lost
+REFIND_SIZES = (-0.15, 0.25)            # log size      sizes a face found again at once has, of the size it had ...
+REFIND_DRIFT = 0.3e-3                   # log size / ms ... widened by this each way per millisecond it is lost
 
 
 @dataclass(frozen=True)
@@ -41,13 +45,13 @@ class LostFace:
         The frame it was last followed in (image pixels).
     unit : float
         The size it had: its slow size reference while it was followed (image pixels per face unit).
-    frames : int
-        Frames since it was lost (0: lost in this frame).
+    ms : float
+        Milliseconds since it was lost (0: lost in this frame).
     """
 
     frame: FaceFrame
     unit: float
-    frames: int = 0
+    ms: float = 0.0
 
     def at_its_size(self) -> FaceFrame:
         """The last frame scaled about its origin to the size the face had (where a hand arriving over the face
@@ -55,20 +59,22 @@ class LostFace:
         return FaceFrame(self.frame.origin.copy(), self.frame.axis * (self.unit / self.frame.unit))
 
 
-def size_slack(frames: int) -> float:
-    """Most absolute log size change of a face lost ``frames`` frames ago: :data:`REFIND_SIZE` plus
-    :data:`REFIND_DRIFT` per frame, at most :data:`LOST_SIZES` allows."""
-    widest = min(-np.log(LOST_SIZES[0]), np.log(LOST_SIZES[1]))
-    return float(min(REFIND_SIZE + REFIND_DRIFT * max(frames, 0), widest))
+def size_band(ms: float) -> tuple[float, float]:
+    """Smallest and largest log size change (of the size it had) of a face lost ``ms`` milliseconds ago:
+    :data:`REFIND_SIZES` widened each way by :data:`REFIND_DRIFT` per millisecond, at most :data:`LOST_SIZES`."""
+    drift = REFIND_DRIFT * max(float(ms), 0.0)
+    return (float(max(REFIND_SIZES[0] - drift, np.log(LOST_SIZES[0]))),
+            float(min(REFIND_SIZES[1] + drift, np.log(LOST_SIZES[1]))))
 
 
 def plausible(frame: FaceFrame, lost: LostFace) -> bool:
-    """Whether a face lost (``lost``) can be in ``frame`` now: its size within :func:`size_slack` of the size it
+    """Whether a face lost (``lost``) can be in ``frame`` now: its size within :func:`size_band` of the size it
     had, its roll within :data:`LOST_ROLL` of its last frame's, its origin within :data:`LOST_REACH` of its units
     of its last frame's (a hand over the face with the face's eyes, a smaller face-like thing beside it, a
     skin-coloured thing elsewhere are not it)."""
     last = lost.frame
-    if abs(np.log(frame.unit / lost.unit)) > size_slack(lost.frames):
+    lo, hi = size_band(lost.ms)
+    if not lo <= np.log(frame.unit / lost.unit) <= hi:
         return False
     roll = abs((frame.roll - last.roll + np.pi) % (2 * np.pi) - np.pi)
     far = float(np.hypot(*(frame.origin - last.origin))) > LOST_REACH * lost.unit

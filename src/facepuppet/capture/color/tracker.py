@@ -33,7 +33,7 @@ from facepuppet.capture.color.face import (
     same_frame,
     similarity_of_pairs,
 )
-from facepuppet.capture.color.follow import LOST_MEMORY, OWN_CHECKS, Follower, FollowState
+from facepuppet.capture.color.follow import OWN_CHECKS, Follower, FollowState
 from facepuppet.capture.color.glare import without_glare
 from facepuppet.capture.color.head_turn import apply_turn_model, turn_angles, turn_rotation
 from facepuppet.capture.color.jobs import wait_pending
@@ -213,20 +213,16 @@ class ColorTracker:
         if fol.frame is not None:
             result = self.measure(rgb, fol.frame, follow=True, gain=cfg.frame_gain / self._place.light_gain)
             fol.misses = 0 if result.eyes_found else fol.misses + 1
-            if not fol.still_the_face(result.frame, self._follower.correlation, cfg):
+            if not fol.still_the_face(result.frame, self._follower.correlation, cfg, timestamp_ms):
                 result = None
         followed = result is not None
         if result is None:
             # The face followed until now (or, for a while after it was lost, last followed) is searched near
             # where it was, at the size it had: after a blink, a turn or a hand passing, it is usually still there.
-            result = self._acquire(rgb, last=fol.lost_face())
+            result = self._acquire(rgb, last=fol.lost_face(timestamp_ms))
         if result is None:
-            if fol.frame is not None:
-                fol.dropped, fol.lost_for = fol.frame, 0
-            fol.lost_for += 1
-            if fol.lost_for > LOST_MEMORY:
-                fol.dropped = fol.score_ref = None
-            fol.frame = self.seen = None
+            fol.drop(timestamp_ms)
+            self.seen = None
             return FrameFeatures.lost(len(CURVE_NAMES), len(POINT_NAMES))
         fol.dropped = None
         curves, fol.frame, fol.correction, self.seen = result.curves, result.frame, result.correction, result.seen
@@ -236,7 +232,7 @@ class ColorTracker:
         if fol.check_in <= 0:
             fol.check_in = cfg.check_every
             if not fol.still_like_a_face(self._template.score(*self._last_measured), cfg):
-                fol.frame, fol.dropped, fol.lost_for, fol.doubted = None, fol.frame, 0, True
+                fol.drop(timestamp_ms, doubted=True)
         curves = self._smoother(curves, result.frame, timestamp_ms)
         return self._features(curves, (w, h), self._turn(timestamp_ms))
 
