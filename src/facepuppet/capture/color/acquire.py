@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 
 from facepuppet.capture.color.config import ColorTrackerConfig
-from facepuppet.capture.color.detect import FaceWindow, face_windows, search_area, supported
+from facepuppet.capture.color.detect import FaceWindow, face_windows, search_area
 from facepuppet.capture.color.eye_anchors import (
     calibrated_anchors,
     eye_centres_of,
@@ -43,8 +43,8 @@ from facepuppet.capture.color.transform import skin_fraction
 from facepuppet.capture.curves import CURVE_NAMES, bezier_points
 
 __all__ = ["Acquirer", "Measurer", "CANDIDATE_SHIFTS", "CANDIDATE_SCALES", "LIGHT_PERCENTILE", "LIGHT_TOP",
-           "MOUTH_OFFSET_LIMIT", "MIN_UNIT", "LOST_REACH", "GLABELLA",
-           "GLABELLA_SKIN", "REFINE_STEPS", "REFINE_SIZES", "SAME_FACE", "ANCHOR_STEPS", "ANCHOR_TOLERANCE",
+           "MOUTH_OFFSET_LIMIT", "MIN_UNIT", "LOST_REACH", "GLABELLA", "GLABELLA_SKIN", "REFINE_STEPS", "REFINE_SIZES",
+           "SAME_FACE", "SAME_ROLL", "WINDOW_SIZE_COST", "ANCHOR_STEPS", "ANCHOR_TOLERANCE",
            "candidate_frames", "fit_light", "likeness", "mouth_offset", "skin_between_brows"]
 
 log = logging.getLogger(__name__)
@@ -62,6 +62,8 @@ REFINE_SIZES = (0.8, 1.25)              # ratio         sizes the eye search may
 SAME_FACE = (0.25, 0.2)                 # face units, log size: the landmark backend's face is the one acquired
 ANCHOR_STEPS = 4                        # steps         most eye searches to find the eye blobs' fixed point
 ANCHOR_TOLERANCE = 0.25                 # crop pixels   step below which the fixed point is found
+WINDOW_SIZE_COST = 0.6                  # per log size  likeness a candidate loses off the size of its window's face
+SAME_ROLL = 0.1                         # radians       candidates closer in roll (and in place and size) are one
 WINDOW_SKIN = 0.3                       # fraction      of a cascade window's middle that must look like skin
 #: Between the brows, above the eyes (face units x0, y0, x1, y1): skin on every face, never on a skin-coloured
 #: object whose dark surroundings the eye search took for eyes.
@@ -125,6 +127,11 @@ def _skin_share(rgb: np.ndarray, win: FaceWindow, skin) -> float:
     if x1 <= x0 or y1 <= y0:
         return 0.0
     return float((skin_probability(np.ascontiguousarray(rgb[y0:y1, x0:x1]), skin) > 0).mean())
+
+
+def _same_roll(a: FaceFrame, b: FaceFrame) -> bool:
+    """Whether two face frames' rolls are within :data:`SAME_ROLL` of each other."""
+    return abs((a.roll - b.roll + np.pi) % (2 * np.pi) - np.pi) < SAME_ROLL
 
 
 class Measurer(Protocol):
@@ -247,7 +254,7 @@ class Acquirer:
             return self.value(result, last, windows)
 
         for M, frame in hypotheses:
-            if frame.unit < MIN_UNIT or any(same_frame(frame, f) for f in seen):
+            if frame.unit < MIN_UNIT or any(same_frame(frame, f) and _same_roll(frame, f) for f in seen):
                 continue
             seen.append(frame)
             place.light = M
@@ -260,11 +267,16 @@ class Acquirer:
 
     def value(self, result: Measurement, last: LostFace | None = None, windows: list[FaceWindow] = ()) -> float:
         """How much a candidate looks like the face sought: :func:`likeness` with ``last``, less
-        ``acquire.unsupported_cost`` when the cascade found windows but none holds it (:func:`~.detect.supported`:
-        it is not where a window's face is, or not of its size)."""
+        ``acquire.unsupported_cost`` when the cascade found windows but none holds it
+        (:meth:`~.detect.FaceWindow.holds`: it is not where a window's face is, or not of its size), else less
+        :data:`WINDOW_SIZE_COST` per unit of absolute log size change from the face of the window holding it that
+        fits best (:attr:`~.detect.FaceWindow.unit`: the window's size is the surest size of a face just found,
+        the eye search may take the brows or nostrils for the eyes)."""
         cfg = self.tracker.config.acquire
-        lost = bool(windows) and not supported(result.frame, windows)
-        return likeness(result, last, cfg.resize_cost) - (cfg.unsupported_cost if lost else 0.0)
+        held = [w for w in windows if w.holds(result.frame)]
+        off = min((abs(np.log(result.frame.unit / w.unit)) for w in held), default=0.0)
+        lost = bool(windows) and not held
+        return likeness(result, last, cfg.resize_cost) - (cfg.unsupported_cost if lost else WINDOW_SIZE_COST * off)
 
     def refine(self, rgb: np.ndarray, candidates: list[FaceFrame], last: LostFace | None = None,
                windows: list[FaceWindow] = ()) -> Measurement | None:

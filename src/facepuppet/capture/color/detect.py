@@ -30,8 +30,8 @@ import numpy as np
 
 from facepuppet.capture.color.face import FaceFrame
 
-__all__ = ["CASCADE_FILE", "WINDOW", "FACE_SIZES", "EYE_PLACES", "TILTS", "BOX_UNIT", "FaceWindow", "face_boxes",
-           "face_windows", "frames_of_boxes", "inside_box", "supported", "search_area"]
+__all__ = ["CASCADE_FILE", "WINDOW", "FACE_SIZES", "EYE_PLACES", "TILTS", "BOX_UNIT", "BOX_EYES", "FaceWindow",
+           "face_boxes", "face_windows", "frames_of_boxes", "inside_box", "supported", "search_area"]
 
 log = logging.getLogger(__name__)
 
@@ -50,8 +50,9 @@ EYE_PLACES = ((0.31, 0.40), (0.69, 0.40))
 #: Turns of the image the cascade searches (degrees): upright, and tilted heads either way.
 TILTS = (0.0, 25.0, -25.0)
 #: A window's face size: its eye-centre distance from this share of the window's width to that (the cascade's
-#: windows of the shared performers: 0.32-0.43).
+#: windows of the shared performers: 0.32-0.43) ...
 BOX_UNIT = (0.28, 0.46)
+BOX_EYES = 0.35                 # share         ... most likely this share (EYE_PLACES seed the eye search wider)
 #: The area searched around a face frame, in face units (x0, y0, x1, y1): the face and its own size around it.
 AROUND = (-3.2, -3.0, 3.2, 4.2)
 
@@ -140,6 +141,11 @@ class FaceWindow:
     def width(self) -> float:
         """The window's width, pixels (the image's and the copy's are the same size)."""
         return float(self.box[2])
+
+    @property
+    def unit(self) -> float:
+        """The most likely eye-centre distance of the window's face (:data:`BOX_EYES` of its width), pixels."""
+        return BOX_EYES * float(self.box[2])
 
     def frame(self) -> FaceFrame:
         """The first face frame of the window: its eyes at :data:`EYE_PLACES`, in image pixels."""
