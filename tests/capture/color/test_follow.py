@@ -5,7 +5,7 @@ import numpy as np
 from facepuppet.capture.color.config import FollowConfig
 from facepuppet.capture.color.detect import AROUND, search_area
 from facepuppet.capture.color.face import FaceFrame
-from facepuppet.capture.color.follow import OWN_LIKENESS, UNIT_JUMP, FollowState
+from facepuppet.capture.color.follow import FRAME_MS, LOST_MEMORY, OWN_LIKENESS, UNIT_GAIN, UNIT_JUMP, FollowState
 
 CFG = FollowConfig()
 
@@ -101,3 +101,29 @@ def test_the_light_gain_is_the_light_transforms_stretch_at_least_one():
     assert abs(place.light_gain - 2.5) < 1e-12
     place.light = np.diag([0.8, 0.9, 0.7])                  # a bright frame toned down: no more noise than filmed
     assert place.light_gain == 1.0
+
+
+def test_the_slow_size_reference_follows_in_time_not_in_calls():
+    # Every 4th frame of a 30 fps clip (133 ms apart): the reference moves as far as it would in 4 frames.
+    state = FollowState(unit_ref=40.0)
+    assert state.still_the_face(_frame(44.0), 0.99, CFG, ms=0.0)           # the first: one frame's gain
+    assert abs(state.unit_ref - (40.0 + UNIT_GAIN * 4.0)) < 1e-9
+    ref = state.unit_ref
+    assert state.still_the_face(_frame(44.0), 0.99, CFG, ms=4 * FRAME_MS)
+    assert abs(state.unit_ref - (ref + (1.0 - (1.0 - UNIT_GAIN) ** 4) * (44.0 - ref))) < 1e-9
+    dense = FollowState(unit_ref=40.0)
+    for k in range(5):
+        dense.still_the_face(_frame(44.0), 0.99, CFG, ms=k * FRAME_MS)
+    assert abs(dense.unit_ref - state.unit_ref) < 1e-9                    # every frame: the same reference
+
+
+def test_a_lost_face_is_remembered_for_a_time_then_forgotten():
+    state = FollowState(frame=_frame(), unit_ref=40.0, score_ref=0.5)
+    state.drop(1000.0)
+    assert state.frame is None and state.dropped is not None
+    lost = state.lost_face(1300.0)
+    assert lost.ms == 300.0 and lost.unit == 40.0 and lost.frame is state.dropped
+    state.drop(1000.0 + LOST_MEMORY)                                       # still lost, just within memory
+    assert state.dropped is not None and state.score_ref == 0.5
+    state.drop(1000.0 + LOST_MEMORY + 1.0)
+    assert state.dropped is None and state.score_ref is None and state.lost_face(3000.0) is None
