@@ -30,8 +30,8 @@ import numpy as np
 
 from facepuppet.capture.color.face import FaceFrame
 
-__all__ = ["CASCADE_FILE", "WINDOW", "FACE_SIZES", "EYE_PLACES", "TILTS", "BOX_UNIT", "BOX_EYES", "FaceWindow",
-           "face_boxes", "face_windows", "frames_of_boxes", "inside_box", "supported", "search_area"]
+__all__ = ["CASCADE_FILE", "WINDOW", "FACE_SIZES", "EYE_PLACES", "TILTS", "TILTED_PASSES", "BOX_UNIT", "BOX_EYES",
+           "FaceWindow", "face_boxes", "face_windows", "frames_of_boxes", "inside_box", "supported", "search_area"]
 
 log = logging.getLogger(__name__)
 
@@ -49,6 +49,7 @@ MAX_FACES = 3                   # faces         largest windows kept
 EYE_PLACES = ((0.31, 0.40), (0.69, 0.40))
 #: Turns of the image the cascade searches (degrees): upright, and tilted heads either way.
 TILTS = (0.0, 25.0, -25.0)
+TILTED_PASSES = 2               # passes        of FACE_SIZES the turned copies run when the upright finds no face
 #: A window's face size: its eye-centre distance from this share of the window's width to that (the cascade's
 #: windows of the shared performers: 0.32-0.43) ...
 BOX_UNIT = (0.28, 0.46)
@@ -78,15 +79,16 @@ def search_area(frame: FaceFrame, shape: tuple[int, ...]) -> tuple[int, int, int
             min(w, int(ox + AROUND[2] * u) + 1), min(h, int(oy + AROUND[3] * u) + 1))
 
 
-def _passes(grey: np.ndarray) -> np.ndarray:
-    """Windows (N, 4) float (x, y, w, h) of the grey image (H, W) uint8, largest first (:data:`FACE_SIZES`)."""
+def _passes(grey: np.ndarray, passes: int = len(FACE_SIZES)) -> tuple[np.ndarray, int]:
+    """Windows (N, 4) float (x, y, w, h) of the grey image (H, W) uint8, largest first, by the first ``passes``
+    of :data:`FACE_SIZES`; and the passes run."""
     cascade = _cascade()
     h, w = grey.shape[:2]
     if cascade is None or w < WINDOW or h < WINDOW:
-        return np.zeros((0, 4))
+        return np.zeros((0, 4)), 0
     side = min(w, h)
     larger = None
-    for share in FACE_SIZES:
+    for k, share in enumerate(FACE_SIZES[:passes]):
         f = min(1.0, WINDOW / (share * side))
         g = grey if f >= 1.0 else cv2.resize(grey, (max(1, round(w * f)), max(1, round(h * f))),
                                              interpolation=cv2.INTER_AREA)
@@ -96,9 +98,9 @@ def _passes(grey: np.ndarray) -> np.ndarray:
                                          minSize=(WINDOW, WINDOW), maxSize=top)
         if len(found):
             boxes = np.asarray(found, dtype=float) / f
-            return boxes[np.argsort(-boxes[:, 2])][:MAX_FACES]
+            return boxes[np.argsort(-boxes[:, 2])][:MAX_FACES], k + 1
         larger = share * side          # pixels: the faces the coarser passes looked for
-    return np.zeros((0, 4))
+    return np.zeros((0, 4)), min(passes, len(FACE_SIZES))
 
 
 def _area(rgb: np.ndarray, roi: tuple[int, int, int, int] | None) -> tuple[int, int, int, int]:
@@ -118,7 +120,7 @@ def face_boxes(rgb: np.ndarray, roi: tuple[int, int, int, int] | None = None) ->
     if _cascade() is None or x1 - x0 < WINDOW or y1 - y0 < WINDOW:
         return np.zeros((0, 4))
     grey = cv2.cvtColor(np.ascontiguousarray(rgb[y0:y1, x0:x1]), cv2.COLOR_RGB2GRAY)
-    boxes = _passes(grey)
+    boxes, _ = _passes(grey)
     return boxes + [x0, y0, 0, 0] if len(boxes) else boxes
 
 
@@ -169,16 +171,18 @@ def face_windows(rgb: np.ndarray, roi: tuple[int, int, int, int] | None = None,
     turned by each of ``tilts`` (degrees) about the part's centre: faces upright and tilted either way, each
     tilt's largest first; [] when none is found or the cascade is not installed.
 
-    Each turned copy is searched like the upright image (its cost, once per tilt); a turned copy is grown to hold
-    the whole part.
+    The first tilt's copy is searched like the upright image (:func:`face_boxes`); the others (each grown to hold
+    the whole part) only for faces as large as those the first found, or, if it found none, as large as
+    :data:`TILTED_PASSES` of :data:`FACE_SIZES` look for (the finest pass costs most: it runs on the full-size
+    copy).
     """
     x0, y0, x1, y1 = _area(rgb, roi)
     if _cascade() is None or x1 - x0 < WINDOW or y1 - y0 < WINDOW:
         return []
     grey = cv2.cvtColor(np.ascontiguousarray(rgb[y0:y1, x0:x1]), cv2.COLOR_RGB2GRAY)
     h, w = grey.shape
-    out = []
-    for tilt in tilts:
+    out, passes = [], len(FACE_SIZES)
+    for i, tilt in enumerate(tilts):
         T = cv2.getRotationMatrix2D((w / 2.0, h / 2.0), float(tilt), 1.0)
         c, s = abs(T[0, 0]), abs(T[0, 1])
         W, H = int(np.ceil(w * c + h * s)), int(np.ceil(w * s + h * c))
@@ -189,7 +193,10 @@ def face_windows(rgb: np.ndarray, roi: tuple[int, int, int, int] | None = None,
             T = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
         to_box = T.copy()
         to_box[:, 2] -= T[:, :2] @ [x0, y0]           # image pixels -> the turned copy's pixels
-        out += [FaceWindow(b, to_box) for b in _passes(turned)]
+        boxes, ran = _passes(turned, passes)
+        if i == 0:
+            passes = ran if len(boxes) else min(ran, TILTED_PASSES)
+        out += [FaceWindow(b, to_box) for b in boxes]
     return out
 
 
