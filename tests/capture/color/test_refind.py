@@ -11,6 +11,7 @@ from facepuppet.capture.color.refind import (
     LOST_REACH,
     LOST_SIZES,
     REFIND_DRIFT,
+    REFIND_GROWN,
     REFIND_SIZES,
     LostFace,
     likeness,
@@ -39,18 +40,21 @@ def test_the_sizes_a_lost_face_is_found_at_widen_with_the_time_lost():
     assert size_band(-5.0) == REFIND_SIZES                             # a clock going back: no time lost
 
 
-def test_a_face_found_again_may_have_grown_more_than_shrunk():
-    # A performer coming closer: the slow reference lags the face, and the eye search's first size is noisy.
+def test_a_face_found_again_larger_needs_a_window_of_its_size():
+    # A performer coming closer fast: 1.25 times the size it had, taken only where a cascade window holds it.
     lost = LostFace(_frame(44.0), 40.0)
-    assert plausible(_frame(40.0 * 1.2), lost)
-    assert not plausible(_frame(40.0 / 1.2), lost)
+    assert not plausible(_frame(40.0 * 1.25), lost)
+    assert plausible(_frame(40.0 * 1.25), lost, held=True)
+    assert not plausible(_frame(40.0 * np.exp(REFIND_GROWN) * 1.01), lost, held=True)
+    assert not plausible(_frame(40.0 / 1.25), lost, held=True)            # smaller: never more than the band
+    assert size_band(0.0, held=True) == (REFIND_SIZES[0], REFIND_GROWN)
 
 
 def test_a_lost_face_is_found_again_near_the_size_it_had_not_the_last_frames():
     # The last frame followed was pulled to 1.4 times the face's size by a hand; the face had 40 pixels.
     lost = LostFace(_frame(56.0), 40.0, ms=66.0)
     assert plausible(_frame(40.0), lost)
-    assert not plausible(_frame(56.0), lost)                            # log 1.4 = 0.34 > 0.27
+    assert not plausible(_frame(56.0), lost)                            # log 1.4 = 0.34 > 0.17
     assert not plausible(_frame(40.0 * 0.7), lost)                      # a face is not suddenly 0.7 its size
     assert plausible(_frame(40.0 * 0.7), LostFace(_frame(56.0), 40.0, ms=1000.0))     # lost for a second
     assert abs(likeness(_measured(_frame(44.0)), lost, 0.3) - (0.5 - 0.3 * np.log(1.1))) < 1e-12

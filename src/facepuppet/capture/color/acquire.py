@@ -266,7 +266,8 @@ class Acquirer:
         return best
 
     def value(self, result: Measurement, last: LostFace | None = None, windows: list[FaceWindow] = ()) -> float:
-        """How much a candidate looks like the face sought: :func:`likeness` with ``last``, less
+        """How much a candidate looks like the face sought: :func:`likeness` with ``last`` (a face just lost found
+        again larger only where a window holds it), less
         ``acquire.unsupported_cost`` when the cascade found windows but none holds it
         (:meth:`~.detect.FaceWindow.holds`: it is not where a window's face is, or not of its size), else less
         :data:`WINDOW_SIZE_COST` per unit of absolute log size change from the face of the window holding it that
@@ -276,14 +277,14 @@ class Acquirer:
         held = [w for w in windows if w.holds(result.frame)]
         off = min((abs(np.log(result.frame.unit / w.unit)) for w in held), default=0.0)
         lost = bool(windows) and not held
-        return likeness(result, last, cfg.resize_cost) - (cfg.unsupported_cost if lost else WINDOW_SIZE_COST * off)
+        return (likeness(result, last, cfg.resize_cost, held=bool(held))
+                - (cfg.unsupported_cost if lost else WINDOW_SIZE_COST * off))
 
     def refine(self, rgb: np.ndarray, candidates: list[FaceFrame], last: LostFace | None = None,
                windows: list[FaceWindow] = ()) -> Measurement | None:
         """Pull each candidate face frame onto the eyes; the result of most :meth:`value` (with ``last`` and the
         cascade's ``windows``; none a face just lost cannot move to, none the eye search pulled outside
         :data:`REFINE_SIZES` of the candidate's size: a face's brows and mouth taken for its eyes), or None."""
-        cost = self.tracker.config.acquire.resize_cost
         skinless = self.tracker.config.acquire.min_skinless_score
         best = None
         for cand in candidates:
@@ -293,7 +294,7 @@ class Acquirer:
                 if result is None:
                     break
                 cand = result.frame
-            if result is None or not result.eyes_found or not np.isfinite(likeness(result, last, cost)):
+            if result is None or not result.eyes_found or not np.isfinite(self.value(result, last, windows)):
                 continue
             if not REFINE_SIZES[0] <= result.frame.unit / start <= REFINE_SIZES[1]:
                 continue
