@@ -7,7 +7,9 @@ MediaPipe's curves and head rotations, as ``calibrate --train-profile`` does); t
 the second half only (held out). Printed per angle: Pearson correlation and mean absolute error in degrees
 over the frames both backends tracked (a constant angle has no correlation: "-"), and the spread of MediaPipe's
 angles over the held-out half (an angle whose spread is under ``TURNS`` degrees does not turn: its
-correlation is on noise).
+correlation is on noise). For the trained profile also, per angle: the slope of its angle regressed on
+MediaPipe's (under 1: the turns read smaller than they are) and the jitter of both (the mean absolute change
+from one frame to the next over consecutive held-out frames both tracked, degrees: a head that wobbles).
 
     python benchmarks/eval_head_pose.py [--frames N] [--model face_landmarker.task] [CLIP ...]
 """
@@ -76,6 +78,19 @@ def scores(ours: np.ndarray, ref: np.ndarray, keep: np.ndarray) -> list[tuple[fl
     return out
 
 
+def slopes_and_jitter(ours: np.ndarray, ref: np.ndarray, keep: np.ndarray) -> str:
+    """Per angle: the slope of ``ours`` regressed on ``ref`` over ``keep``, and the jitter of each (mean absolute
+    change between consecutive frames both in ``keep``), degrees."""
+    pairs = keep[1:] & keep[:-1]
+    cells = []
+    for k, name in enumerate(ANGLES):
+        a, b = np.degrees(ours[:, k]), np.degrees(ref[:, k])
+        slope = float(np.polyfit(b[keep], a[keep], 1)[0]) if b[keep].std() > 1e-9 else float("nan")
+        ja, jb = (float(np.abs(np.diff(v)[pairs]).mean()) for v in (a, b))
+        cells.append(f"{name} slope {slope:.2f}, jitter {ja:.2f} (MediaPipe {jb:.2f})")
+    return "  trained, second half: " + "; ".join(cells)
+
+
 def row(label: str, s: list[tuple[float, float]], n: int) -> str:
     cells = " ".join(f"{'-' if np.isnan(r) else f'{r:6.2f}':>6s} {e:6.2f}" for r, e in s)
     return f"  {label:22s} {n:6d} {cells}"
@@ -117,6 +132,7 @@ def main(argv: list[str] | None = None) -> int:
         t_valid, _, _, t_angles = track("color", {"profile": profile}, frames, fps)
         keep = mp_valid & t_valid & held
         print(row("trained, second half", scores(t_angles, mp_angles, keep), int(keep.sum())))
+        print(slopes_and_jitter(t_angles, mp_angles, keep))
         spread = np.degrees(mp_angles[mp_valid & held].std(axis=0))
         turns = ", ".join(f"{a} {'turns' if s >= TURNS else 'still'}" for a, s in zip(ANGLES[:2], spread, strict=False))
         print(f"  MediaPipe's spread over the second half: yaw {spread[0]:.1f}, pitch {spread[1]:.1f}, roll "

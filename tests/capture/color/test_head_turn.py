@@ -3,6 +3,7 @@
 import numpy as np
 
 from facepuppet.capture.color.head_turn import (
+    JITTER,
     N_FEATURES,
     RAY_SHARE,
     head_patch,
@@ -51,7 +52,7 @@ def test_input_does_not_change_with_the_light_strength(rng):
 def test_training_pairs_mirror_the_yaw(rng):
     crop = _crop(rng)
     xs, ys = training_pairs(crop, np.eye(2, 3), PX, np.array([0.1, -0.05, 0.02]), rng)
-    assert len(xs) == len(ys) == 10
+    assert len(xs) == len(ys) == 2 * (JITTER[0] + 1)
     np.testing.assert_allclose(ys[0], [0.1, -0.05])
     np.testing.assert_allclose(ys[1], [-0.1, -0.05])
     np.testing.assert_allclose(xs[1], head_patch(crop, np.eye(2, 3), PX, mirror=True))

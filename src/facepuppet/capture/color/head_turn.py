@@ -39,8 +39,10 @@ __all__ = ["PATCHES", "N_FEATURES", "JITTER", "READS", "RAY_SHARE", "MODEL_KIND"
 PATCHES = (((-1.2, -0.75, 1.2, 1.85), (10, 11), 4), ((-0.8, -0.4, 0.8, 1.1), (16, 14), 2))
 #: Length of the model's input: two gradient components per cell of every patch.
 N_FEATURES = sum(w * h * 2 for _, (w, h), _ in PATCHES)
-#: Jittered copies of each labelled crop, their largest shift (face units) and scale change (ratio).
-JITTER = (4, 0.04, 0.04)
+#: Jittered copies of each labelled crop, their largest shift (face units) and scale change (ratio). The
+#: copies are random draws: enough of them that the fit hardly depends on the draw (each copy costs one
+#: :func:`head_patch` at training time, nothing per tracked frame).
+JITTER = (12, 0.04, 0.04)
 #: Per angle (yaw, pitch): the patches of :data:`PATCHES` its regression reads, and its ridge penalty (on
 #: gradients normalised per patch). The pitch reads the middle of the face only: the outline and the chin
 #: move with the expression as much as with a nod.

@@ -263,7 +263,8 @@ def train_profile(frames, curves, *, base: Profile | None = None, name: str = "p
     tracker = ColorTracker(replace(profile, anchors=anchors), config=eyes_only)
     tracked = []
     pairs: dict[str, tuple[list, list]] = {family: ([], []) for family in FAMILIES}
-    turn_x, turn_y = [], []
+    # the head-turn model's jitter draws from a stream of its own, so that its count does not move the others'
+    turn_x, turn_y, turn_rng = [], [], np.random.default_rng([seed, 1])
     (c0, k0), (c1, k1) = (_IDX["eye_right_upper"], 3), (_IDX["eye_left_upper"], 3)
     for i, (rgb, fr) in enumerate(crops):
         got = tracker.track(rgb, 100 * i)
@@ -279,7 +280,7 @@ def train_profile(frames, curves, *, base: Profile | None = None, name: str = "p
             if turns[i] is not None:
                 layout_px = tracker.layout_in_crop
                 S = similarity_of_pairs(layout_px[[c0, c1], [k0, k1]], placed[[c0, c1], [k0, k1]])
-                x, y = head_turn.training_pairs(crop, S, tracker.config.measure.px, turns[i], rng)
+                x, y = head_turn.training_pairs(crop, S, tracker.config.measure.px, turns[i], turn_rng)
                 turn_x += x
                 turn_y += y
     lids = _lid_model(plain, curves_px, tracked, rng)
