@@ -25,9 +25,9 @@ from dataclasses import dataclass
 from facepuppet._util.interrupt import Interrupted, handle_signals
 from facepuppet.pipeline.animate import AnimateConfig
 
-__all__ = ["ClipTask", "ClipResult", "run_clip", "run_guarded", "cached_rig", "reused_tracker", "share_cores",
-           "WORKER_THREADS", "BLAS_THREAD_VARIABLES", "guard_worker", "one_line", "PROGRESS_EVERY_S",
-           "PARENT_WATCH_S", "PARENT_GONE_REPEAT_S", "REUSED_BACKENDS", "warm_up"]
+__all__ = ["ClipTask", "ClipResult", "run_clip", "run_guarded", "cached_rig", "rig_file", "load_rig_data",
+           "reused_tracker", "share_cores", "WORKER_THREADS", "BLAS_THREAD_VARIABLES", "guard_worker", "one_line",
+           "PROGRESS_EVERY_S", "PARENT_WATCH_S", "PARENT_GONE_REPEAT_S", "REUSED_BACKENDS", "warm_up"]
 
 log = logging.getLogger(__name__)
 
@@ -115,6 +115,23 @@ def cached_rig(path: str, sha256: str, load=None):
             rig = load()
         rig = _RIGS[sha256] = rig
     return rig
+
+
+def rig_file(path: str) -> bytes:
+    """The bytes of the rig file ``path``, to be sent to workers elsewhere: what a driver
+    ships needs neither the rig's modules nor its inflating (each worker does both, once, :func:`load_rig_data`)."""
+    with open(path, "rb") as f:
+        return f.read()
+
+
+def load_rig_data(path: str, data):
+    """The rig of file ``path`` from its contents ``data`` (:func:`rig_file`), or ``data`` itself when it is not
+    bytes (a rig loaded before)."""
+    if not isinstance(data, (bytes, bytearray, memoryview)):
+        return data
+    from facepuppet.pipeline.rig import load_rig
+
+    return load_rig(path, data=bytes(data))
 
 
 def reused_tracker(options):

@@ -253,10 +253,14 @@ def _source(array: np.ndarray | None) -> bytes | None:
     return array.tobytes()
 
 
-def load_rig(path: str | os.PathLike) -> Rig:
-    """Read a rig file; a missing, corrupt, truncated or newer-version file raises FacepuppetError naming it."""
+def load_rig(path: str | os.PathLike, *, data: bytes | None = None) -> Rig:
+    """Read a rig file; a missing, corrupt, truncated or newer-version file raises FacepuppetError naming it.
+
+    ``data``: the file's contents read before (a batch's rig sent to a Ray actor), read instead of ``path``,
+    which then only names it in messages.
+    """
     arrays = read_npz(path, "rig file", known=("format", "version", "names", "point_names", "backend",
-                                               "profile_hash"), prefixes=(_CHAR, _MAPPER))
+                                               "profile_hash"), prefixes=(_CHAR, _MAPPER), data=data)
     check_format(arrays, path, "rig file", RIG_FORMAT, RIG_VERSION)
     needed = [_CHAR + k for k in ("neutral", "targets", "names", "name")] + ["names", "point_names"]
     missing = [k for k in needed if k not in arrays]
