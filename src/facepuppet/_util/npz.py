@@ -14,7 +14,6 @@ list swapped for a huge numeric array is refused before it is inflated (or turne
 
 from __future__ import annotations
 
-import io
 import math
 import os
 import stat
@@ -87,7 +86,7 @@ def _read_member(zf: zipfile.ZipFile, info: zipfile.ZipInfo, name: str, budget: 
 
 def read_npz(path: str | os.PathLike, what: str, *, known: Iterable[str] | None = None,
              prefixes: Iterable[str] = (), member_bytes: int | None = None,
-             sizes: Mapping[str, int] | None = None, data: bytes | None = None) -> dict[str, np.ndarray]:
+             sizes: Mapping[str, int] | None = None) -> dict[str, np.ndarray]:
     """The arrays of an ``.npz`` file the format knows, read with their headers checked first (no pickle).
 
     Parameters
@@ -105,9 +104,6 @@ def read_npz(path: str | os.PathLike, what: str, *, known: Iterable[str] | None 
     sizes : mapping of str to int, optional
         The most values the format allows in some members (a scalar member 1, a frame size 2): a header
         claiming more is refused before its data is inflated.
-    data : bytes, optional
-        The file's contents, read before (sent from another machine): read instead of the file, ``path`` only
-        names it in messages.
 
     Raises
     ------
@@ -118,8 +114,6 @@ def read_npz(path: str | os.PathLike, what: str, *, known: Iterable[str] | None 
     known = None if known is None else set(known)
     prefixes = tuple(prefixes)
     limit = LIMITS["member_bytes"] if member_bytes is None else min(int(member_bytes), LIMITS["member_bytes"])
-    if data is not None:
-        return _read_archive(io.BytesIO(data), path, what, known, prefixes, limit, sizes)
     try:
         st = os.stat(path)
     except FileNotFoundError as e:
@@ -130,14 +124,8 @@ def read_npz(path: str | os.PathLike, what: str, *, known: Iterable[str] | None 
         raise FacepuppetError(f"{path}: is a folder, not a {what}")
     if not stat.S_ISREG(st.st_mode):
         raise FacepuppetError(f"{path}: not a regular file, not a {what}")
-    return _read_archive(path, path, what, known, prefixes, limit, sizes)
-
-
-def _read_archive(source, path, what: str, known: set[str] | None, prefixes: tuple[str, ...], limit: int,
-                  sizes: Mapping[str, int] | None) -> dict[str, np.ndarray]:
-    """:func:`read_npz`'s reading of the archive ``source`` (a path or a binary file object)."""
     try:
-        with zipfile.ZipFile(source) as zf:
+        with zipfile.ZipFile(path) as zf:
             infos = zf.infolist()
             if len(infos) > LIMITS["members"]:
                 raise ValueError(f"{len(infos)} members, more than {LIMITS['members']}")

@@ -2,9 +2,10 @@
 
 Each actor (:class:`ClipWorker`) is one Ray worker process that lives for the whole batch, like a local worker:
 its imports, the colour tracker's compiled kernels, the tracker itself (reset before each clip) and each rig stay
-loaded across its clips. A rig file's bytes go once into the object store (``ray.put``: the driver neither imports
-the rig's modules nor inflates it); an actor fetches them the first time one of its clips needs the rig, loads it
-and keeps it (:func:`~facepuppet.batch.worker.cached_rig`).
+loaded across its clips. A rig file is read once, by the driver, and its arrays go once into the object store
+(``ray.put``; the driver imports none of the mapping's modules); an actor fetches them the first time one of its
+clips needs the rig (shared memory on the same node, no copy), builds the rig and keeps it
+(:func:`~facepuppet.batch.worker.cached_rig`).
 
 A clip is one call of the actor's generator method :meth:`ClipWorker.run`, a Ray streaming generator: it yields
 the frames done since its last yield (an ``int``, at most every :data:`~facepuppet.batch.worker.PROGRESS_EVERY_S`
@@ -28,9 +29,9 @@ from facepuppet.batch.worker import (
     ClipResult,
     ClipTask,
     cached_rig,
-    load_rig_data,
     one_line,
-    rig_file,
+    rig_arrays,
+    rig_of_arrays,
     run_clip,
     share_cores,
     warm_up,
@@ -72,7 +73,7 @@ class ClipWorker:
         Threads of its native pools (:func:`~facepuppet.batch.worker.share_cores`): its CPUs.
     warm : TrackerOptions, optional
         The batch's tracker options: the actor loads at once what its first clip would
-        (:func:`~facepuppet.batch.worker.warm_up`), while the driver sends out the rig files and the other actors start.
+        (:func:`~facepuppet.batch.worker.warm_up`), while the driver sends out the rigs and the other actors start.
     """
 
     def __init__(self, threads: int = RAY_TASK_CPUS, warm=None) -> None:
@@ -100,15 +101,15 @@ class ClipWorker:
     def run(self, task: ClipTask, rig_box: list):
         """Animate one clip: yield frame counts (``int``, frames since the last yield), then its ClipResult.
 
-        ``rig_box`` holds the object reference of the rig file's bytes (in a list, so that Ray hands it over
-        unresolved and it is fetched only by an actor that has not kept the rig yet), or the bytes or the rig
+        ``rig_box`` holds the object reference of the rig file's arrays (in a list, so that Ray hands it over
+        unresolved and it is fetched only by an actor that has not kept the rig yet), or the arrays or the rig
         itself. The first clip waits for
         the warm-up after fetching its rig.
         """
         self.clips += 1
         if self.clips == 1:
             self.steps.append(("first clip arrived", time.time()))
-        rig = cached_rig(task.rig, task.rig_sha256, load=lambda: load_rig_data(task.rig, _resolve(rig_box[0])))
+        rig = cached_rig(task.rig, task.rig_sha256, load=lambda: rig_of_arrays(task.rig, _resolve(rig_box[0])))
         if self.clips == 1:
             self.steps.append(("its rig", time.time()))
         if self.warming is not None:
@@ -231,27 +232,28 @@ def _drive(ray, tasks, slots: int, actors: list, on_progress, on_result, timelin
         return actor
 
     queues: dict = {}                           # actor -> [(generator, task)], the clip it works on first
-    for _ in range(slots):                      # the actors start (processes, imports, kernels) while the rig goes out
+    for _ in range(slots):                      # the actors start (processes, imports, kernels) while the rigs go out
         start()
     timeline.mark(f"{slots} actors asked for")
     rigs: dict = {}
     for t in tasks:
         if t.rig_sha256 not in rigs:
-            rigs[t.rig_sha256] = ray.put(rig_file(t.rig))
-    timeline.mark(f"{len(rigs)} rig file(s) in the object store")
+            rigs[t.rig_sha256] = ray.put(rig_arrays(t.rig))
+    timeline.mark(f"{len(rigs)} rig(s) in the object store")
     todo = list(reversed(tasks))
     running: dict = {}                          # generator -> actor
 
-    def give(actor) -> None:
+    def give(actor, most: int = QUEUED_PER_ACTOR) -> None:
         queue = queues[actor]
-        while todo and (not queue or (len(queue) < QUEUED_PER_ACTOR and len(todo) >= len(queues))):
+        while todo and len(queue) < most and (not queue or len(todo) >= len(queues)):
             task = todo.pop()
             ref = actor.run.remote(task, [rigs[task.rig_sha256]])
             queue.append((ref, task))
             running[ref] = actor
 
-    for actor in list(actors):
-        give(actor)
+    for most in range(1, QUEUED_PER_ACTOR + 1):  # round by round: the longest clips go to different actors
+        for actor in list(actors):
+            give(actor, most)
     while running:
         ready, _ = ray.wait(list(running), num_returns=1, timeout=POLL_S)
         for ref in ready:

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from facepuppet._util.interrupt import Interrupted, handle_signals
 from facepuppet.pipeline.animate import AnimateConfig
 
-__all__ = ["ClipTask", "ClipResult", "run_clip", "run_guarded", "cached_rig", "rig_file", "load_rig_data",
+__all__ = ["ClipTask", "ClipResult", "run_clip", "run_guarded", "cached_rig", "rig_arrays", "rig_of_arrays",
            "reused_tracker", "share_cores", "WORKER_THREADS", "BLAS_THREAD_VARIABLES", "guard_worker", "one_line",
            "PROGRESS_EVERY_S", "PARENT_WATCH_S", "PARENT_GONE_REPEAT_S", "REUSED_BACKENDS", "warm_up"]
 
@@ -117,21 +117,22 @@ def cached_rig(path: str, sha256: str, load=None):
     return rig
 
 
-def rig_file(path: str) -> bytes:
-    """The bytes of the rig file ``path``, to be sent to workers elsewhere: what a driver
-    ships needs neither the rig's modules nor its inflating (each worker does both, once, :func:`load_rig_data`)."""
-    with open(path, "rb") as f:
-        return f.read()
+def rig_arrays(path: str) -> dict:
+    """The arrays of the rig file ``path``, inflated and checked, to be sent to workers elsewhere: reading them
+    needs neither the mapping's modules nor the rig built (each worker builds it once, :func:`rig_of_arrays`)."""
+    from facepuppet.pipeline.rig import read_rig_arrays
+
+    return read_rig_arrays(path)
 
 
-def load_rig_data(path: str, data):
-    """The rig of file ``path`` from its contents ``data`` (:func:`rig_file`), or ``data`` itself when it is not
-    bytes (a rig loaded before)."""
-    if not isinstance(data, (bytes, bytearray, memoryview)):
-        return data
-    from facepuppet.pipeline.rig import load_rig
+def rig_of_arrays(path: str, arrays):
+    """The rig of file ``path`` from its arrays (:func:`rig_arrays`), or ``arrays`` itself when it is not a dict (a
+    rig loaded before)."""
+    if not isinstance(arrays, dict):
+        return arrays
+    from facepuppet.pipeline.rig import rig_from_arrays
 
-    return load_rig(path, data=bytes(data))
+    return rig_from_arrays(arrays, path)
 
 
 def reused_tracker(options):
