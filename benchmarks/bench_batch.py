@@ -74,6 +74,9 @@ CLUSTER_START_S, CLUSTER_STOP_S = 180, 60
 #: Seconds between two looks at the CPU of a Ray run's processes.
 SAMPLE_S = 0.2
 
+#: Seconds a run's leftover processes (its own Ray runtime's, a stopped cluster's) get to end before the next run.
+SESSION_GONE_S = 30
+
 
 def make_rig(assets: Path, clip: Path, model: str, folder: Path, *, trained: bool) -> tuple[Path | None, Path]:
     """A rig (ICT FaceKit character, --auto key expressions) from ``clip``, and the colour-tracker profile it
@@ -194,6 +197,37 @@ class Cluster:
         except (ProcessLookupError, PermissionError):
             pass
         self.proc.wait()
+        wait_session_gone(self.proc.pid, "the Ray cluster")
+
+
+def session_pids(sid: int) -> list[int]:
+    """Process ids of the live processes of session ``sid`` (Linux's /proc; zombies left out)."""
+    pids = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[3]) == sid and fields[0] != "Z":
+            pids.append(int(stat.parent.name))
+    return pids
+
+
+def wait_session_gone(sid: int, what: str) -> float:
+    """Wait until session ``sid`` has no live process (a Ray runtime's processes end after its command), at most
+    :data:`SESSION_GONE_S` seconds, then SIGKILL what is left: the next run starts on a machine without them.
+    Returns the seconds waited."""
+    t0 = time.perf_counter()
+    while session_pids(sid) and time.perf_counter() - t0 < SESSION_GONE_S:
+        time.sleep(SAMPLE_S)
+    left = session_pids(sid)
+    if left:
+        print(f"  {what}: {len(left)} process(es) still there after {SESSION_GONE_S} s, killed")
+        try:
+            os.killpg(sid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            pass
+    return time.perf_counter() - t0
 
 
 def children_cpu() -> float:
@@ -227,6 +261,10 @@ def facepuppet(*args: str, cpus: set[int] | None = None, cluster: Cluster | None
     dt, cpu = time.perf_counter() - t0, children_cpu() - c0
     if sampler is not None:
         cpu = sampler.stop()
+    if ray and cluster is None:                 # its own runtime's processes end after it: not during the next run
+        gone = wait_session_gone(proc.pid, "the batch's own Ray runtime")
+        if timeline:
+            print(f"  its own Ray runtime's last processes ended {gone:.1f} s after the command (not timed)")
     if timeline:                                # the engine's own timeline (facepuppet.batch.timeline)
         for line in stderr.splitlines():
             if "timeline:" in line:

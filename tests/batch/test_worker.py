@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from facepuppet.batch import worker
-from facepuppet.batch.worker import BLAS_THREAD_VARIABLES, ClipTask, reused_tracker, run_clip, share_cores
+from facepuppet.batch.worker import BLAS_THREAD_VARIABLES, ClipTask, reused_tracker, rig_arrays, run_clip, share_cores
 from facepuppet.pipeline.animate import AnimateConfig, animate
 from facepuppet.pipeline.tracking import TrackerOptions
 
@@ -142,7 +142,6 @@ def test_a_ray_actors_clip_streams_its_frame_counts_then_animates_result(two_cli
     import cv2
 
     from facepuppet.batch.ray_engine import ClipWorker
-    from facepuppet.pipeline.rig import load_rig
 
     paths, rig, profile = two_clips
     config = AnimateConfig(tracker=TrackerOptions(profile=str(profile), progress=False))
@@ -154,7 +153,7 @@ def test_a_ray_actors_clip_streams_its_frame_counts_then_animates_result(two_cli
         actor = ClipWorker(1)
         task = ClipTask(index=7, clip=str(paths[1]), rig=str(tmp_path / "not-read.npz"), rig_sha256="shipped",
                         outputs={"glb": str(tmp_path / "out.glb")}, config=config)
-        items = list(actor.run(task, [load_rig(rig)]))              # the rig as shipped, not from its path
+        items = list(actor.run(task, [rig_arrays(str(rig))]))       # the rig's arrays as shipped, not its path
         bad = ClipTask(index=8, clip=str(tmp_path / "none.mp4"), rig=str(rig), rig_sha256="shipped",
                        outputs={"glb": str(tmp_path / "none.glb")}, config=config)
         failed = list(actor.run(bad, [None]))                         # the rig kept: not fetched again

@@ -2,8 +2,10 @@
 
 Each actor (:class:`ClipWorker`) is one Ray worker process that lives for the whole batch, like a local worker:
 its imports, the colour tracker's compiled kernels, the tracker itself (reset before each clip) and each rig stay
-loaded across its clips. A rig goes once into the object store (``ray.put``); an actor fetches it the first time
-one of its clips needs it and keeps it (:func:`~facepuppet.batch.worker.cached_rig`).
+loaded across its clips. A rig file is read once, by the driver, and its arrays go once into the object store
+(``ray.put``; the driver imports none of the mapping's modules); an actor fetches them the first time one of its
+clips needs the rig (shared memory on the same node, no copy), builds the rig and keeps it
+(:func:`~facepuppet.batch.worker.cached_rig`).
 
 A clip is one call of the actor's generator method :meth:`ClipWorker.run`, a Ray streaming generator: it yields
 the frames done since its last yield (an ``int``, at most every :data:`~facepuppet.batch.worker.PROGRESS_EVERY_S`
@@ -28,13 +30,16 @@ from facepuppet.batch.worker import (
     ClipTask,
     cached_rig,
     one_line,
+    rig_arrays,
+    rig_of_arrays,
     run_clip,
     share_cores,
     warm_up,
 )
 from facepuppet.errors import FacepuppetError
 
-__all__ = ["run_ray", "ClipWorker", "RAY_MISSING", "RAY_TASK_CPUS", "RAY_INIT", "POLL_S", "STEPS_WAIT_S"]
+__all__ = ["run_ray", "ClipWorker", "RAY_MISSING", "RAY_TASK_CPUS", "RAY_INIT", "POLL_S", "STEPS_WAIT_S",
+           "QUEUED_PER_ACTOR"]
 
 log = logging.getLogger(__name__)
 
@@ -43,6 +48,9 @@ RAY_TASK_CPUS = 1
 
 #: Seconds the driver waits on the running clips before looking again.
 POLL_S = 0.1
+
+#: Clips queued on one actor at a time: the one it works on and the next (:func:`_drive`).
+QUEUED_PER_ACTOR = 2
 
 #: Seconds the driver waits at the end for the actors' start-up steps (the timeline's).
 STEPS_WAIT_S = 5.0
@@ -93,14 +101,15 @@ class ClipWorker:
     def run(self, task: ClipTask, rig_box: list):
         """Animate one clip: yield frame counts (``int``, frames since the last yield), then its ClipResult.
 
-        ``rig_box`` holds the rig's object reference (in a list, so that Ray hands it over unresolved and the
-        rig is fetched only by an actor that has not kept it yet), or the rig itself. The first clip waits for
+        ``rig_box`` holds the object reference of the rig file's arrays (in a list, so that Ray hands it over
+        unresolved and it is fetched only by an actor that has not kept the rig yet), or the arrays or the rig
+        itself. The first clip waits for
         the warm-up after fetching its rig.
         """
         self.clips += 1
         if self.clips == 1:
             self.steps.append(("first clip arrived", time.time()))
-        rig = cached_rig(task.rig, task.rig_sha256, load=lambda: _resolve(rig_box[0]))
+        rig = cached_rig(task.rig, task.rig_sha256, load=lambda: rig_of_arrays(task.rig, _resolve(rig_box[0])))
         if self.clips == 1:
             self.steps.append(("its rig", time.time()))
         if self.warming is not None:
@@ -206,8 +215,12 @@ def run_ray(tasks: list[ClipTask], *, workers: int | None, address: str | None, 
 def _drive(ray, tasks, slots: int, actors: list, on_progress, on_result, timeline: Timeline) -> None:
     """Feed the tasks to ``slots`` actors (appended to ``actors``) and hand back their progress and results.
 
-    One ``ray.wait`` on every running clip's generator and every actor's start-up call returns as soon as one
-    has something; the actor whose clip ended gets the next clip at once.
+    Each actor holds up to :data:`QUEUED_PER_ACTOR` clips: the one it works on and the next, which Ray runs as
+    soon as the first returns (an actor runs its calls in order), so no actor waits for the driver between two
+    clips. A second clip is queued only while at least one clip per actor is left to hand out, so the last
+    clips still go to whichever actor is free first. One ``ray.wait`` on every queued clip's generator returns as
+    soon as one has something (only an actor's first generator yields). When an actor dies, the clip it was on
+    gets a failed row and its queued clips go back to the head of the line, for the actor that replaces it.
     """
     remote = ray.remote(num_cpus=RAY_TASK_CPUS)(ClipWorker)
     warm = tasks[0].config.tracker
@@ -215,45 +228,60 @@ def _drive(ray, tasks, slots: int, actors: list, on_progress, on_result, timelin
     def start() -> object:
         actor = remote.remote(RAY_TASK_CPUS, warm)
         actors.append(actor)
+        queues[actor] = []
         return actor
 
+    queues: dict = {}                           # actor -> [(generator, task)], the clip it works on first
     for _ in range(slots):                      # the actors start (processes, imports, kernels) while the rigs go out
         start()
     timeline.mark(f"{slots} actors asked for")
     rigs: dict = {}
     for t in tasks:
         if t.rig_sha256 not in rigs:
-            rigs[t.rig_sha256] = ray.put(cached_rig(t.rig, t.rig_sha256))
+            rigs[t.rig_sha256] = ray.put(rig_arrays(t.rig))
     timeline.mark(f"{len(rigs)} rig(s) in the object store")
     todo = list(reversed(tasks))
-    running: dict = {}                          # generator -> (actor, task)
+    running: dict = {}                          # generator -> actor
 
-    def give(actor) -> None:
-        if todo:
+    def give(actor, most: int = QUEUED_PER_ACTOR) -> None:
+        queue = queues[actor]
+        while todo and len(queue) < most and (not queue or len(todo) >= len(queues)):
             task = todo.pop()
-            running[actor.run.remote(task, [rigs[task.rig_sha256]])] = (actor, task)
+            ref = actor.run.remote(task, [rigs[task.rig_sha256]])
+            queue.append((ref, task))
+            running[ref] = actor
 
-    for actor in list(actors):
-        give(actor)
+    for most in range(1, QUEUED_PER_ACTOR + 1):  # round by round: the longest clips go to different actors
+        for actor in list(actors):
+            give(actor, most)
     while running:
         ready, _ = ray.wait(list(running), num_returns=1, timeout=POLL_S)
         for ref in ready:
-            actor, task = running[ref]
+            actor = running.get(ref)
+            if actor is None:                   # a clip of an actor that died and was replaced meanwhile
+                continue
+            queue = queues[actor]
+            task = queue[0][1]
             try:
                 item = ray.get(next(ref))
             except StopIteration:
                 item = ClipResult(index=task.index, ok=False, error=f"{task.clip}: Ray actor gave no result")
             except Exception as e:              # noqa: BLE001 - the actor died under this clip, or Ray failed it
                 item = ClipResult(index=task.index, ok=False, error=f"{task.clip}: Ray actor failed ({one_line(e)})")
+                for gone, waiting in reversed(queue[1:]):
+                    del running[gone]
+                    todo.append(waiting)        # never started: next in line, in their order
+                del queue[1:]
                 actors.remove(actor)
                 try:
                     ray.kill(actor)
                 except Exception:               # noqa: BLE001, S110 - already gone
                     pass
+                del queues[actor]
                 actor = start()
             if isinstance(item, ClipResult):
-                del running[ref]
-                give(actor)                     # first: the actor starts its next clip while the report is written
+                del running[queue.pop(0)[0]]
+                give(actor)                     # first: the actor queues its next clip while the report is written
                 timeline.clip(f"pid {item.worker}", item.started, item.seconds)
                 on_result(item)
             else:

@@ -25,9 +25,9 @@ from dataclasses import dataclass
 from facepuppet._util.interrupt import Interrupted, handle_signals
 from facepuppet.pipeline.animate import AnimateConfig
 
-__all__ = ["ClipTask", "ClipResult", "run_clip", "run_guarded", "cached_rig", "reused_tracker", "share_cores",
-           "WORKER_THREADS", "BLAS_THREAD_VARIABLES", "guard_worker", "one_line", "PROGRESS_EVERY_S",
-           "PARENT_WATCH_S", "PARENT_GONE_REPEAT_S", "REUSED_BACKENDS", "warm_up"]
+__all__ = ["ClipTask", "ClipResult", "run_clip", "run_guarded", "cached_rig", "rig_arrays", "rig_of_arrays",
+           "reused_tracker", "share_cores", "WORKER_THREADS", "BLAS_THREAD_VARIABLES", "guard_worker", "one_line",
+           "PROGRESS_EVERY_S", "PARENT_WATCH_S", "PARENT_GONE_REPEAT_S", "REUSED_BACKENDS", "warm_up"]
 
 log = logging.getLogger(__name__)
 
@@ -115,6 +115,24 @@ def cached_rig(path: str, sha256: str, load=None):
             rig = load()
         rig = _RIGS[sha256] = rig
     return rig
+
+
+def rig_arrays(path: str) -> dict:
+    """The arrays of the rig file ``path``, inflated and checked, to be sent to workers elsewhere: reading them
+    needs neither the mapping's modules nor the rig built (each worker builds it once, :func:`rig_of_arrays`)."""
+    from facepuppet.pipeline.rig import read_rig_arrays
+
+    return read_rig_arrays(path)
+
+
+def rig_of_arrays(path: str, arrays):
+    """The rig of file ``path`` from its arrays (:func:`rig_arrays`), or ``arrays`` itself when it is not a dict (a
+    rig loaded before)."""
+    if not isinstance(arrays, dict):
+        return arrays
+    from facepuppet.pipeline.rig import rig_from_arrays
+
+    return rig_from_arrays(arrays, path)
 
 
 def reused_tracker(options):

@@ -51,7 +51,8 @@ from facepuppet.errors import FacepuppetError
 from facepuppet.io.character import Character
 from facepuppet.io.performer import Performer
 
-__all__ = ["Rig", "Pairing", "pair_by_name", "fit_rig", "save_rig", "load_rig", "RIG_FORMAT", "RIG_VERSION"]
+__all__ = ["Rig", "Pairing", "pair_by_name", "fit_rig", "save_rig", "load_rig", "read_rig_arrays",
+           "rig_from_arrays", "RIG_FORMAT", "RIG_VERSION"]
 
 RIG_FORMAT = "facepuppet-rig"
 RIG_VERSION = 2
@@ -255,6 +256,13 @@ def _source(array: np.ndarray | None) -> bytes | None:
 
 def load_rig(path: str | os.PathLike) -> Rig:
     """Read a rig file; a missing, corrupt, truncated or newer-version file raises FacepuppetError naming it."""
+    return rig_from_arrays(read_rig_arrays(path), path)
+
+
+def read_rig_arrays(path: str | os.PathLike) -> dict[str, np.ndarray]:
+    """The rig file's arrays (the module's table), inflated and checked for their format and members, with
+    neither the mapping's modules imported nor the rig built (:func:`rig_from_arrays` does both): what a batch
+    sends its Ray actors."""
     arrays = read_npz(path, "rig file", known=("format", "version", "names", "point_names", "backend",
                                                "profile_hash"), prefixes=(_CHAR, _MAPPER))
     check_format(arrays, path, "rig file", RIG_FORMAT, RIG_VERSION)
@@ -262,6 +270,12 @@ def load_rig(path: str | os.PathLike) -> Rig:
     missing = [k for k in needed if k not in arrays]
     if missing:
         raise FacepuppetError(f"{path}: rig file lacks {', '.join(missing)}")
+    return arrays
+
+
+def rig_from_arrays(arrays: dict[str, np.ndarray], path: str | os.PathLike) -> Rig:
+    """The rig of the arrays :func:`read_rig_arrays` read from ``path`` (named in the messages); damaged values
+    raise FacepuppetError naming it."""
     from facepuppet.mapping import ExpressionMapper
 
     try:

@@ -1,0 +1,139 @@
+"""The Ray engine's driver against a stand-in for Ray (no Ray needed): actors that run their calls in order, as
+Ray's do. Each clip gets exactly one result; an actor never holds more than two clips; the last clips go to the
+actor that is free; an actor that dies under a clip gives that clip a failed row, and the clip queued behind it
+runs on another actor, once."""
+
+from __future__ import annotations
+
+import sys
+import types
+
+import pytest
+
+from facepuppet.batch import ray_engine
+from facepuppet.batch.worker import ClipResult, ClipTask
+from facepuppet.pipeline.animate import AnimateConfig
+
+
+class ActorDied(Exception):
+    """What Ray raises for the calls of an actor that died."""
+
+
+class FakeActor:
+    """An actor: its calls in a queue, the first one running; ``dies_on`` the clip index under which it dies."""
+
+    def __init__(self, ray, dies_on):
+        self.ray, self.dies_on, self.calls, self.dead = ray, dies_on, [], False
+        self.run = types.SimpleNamespace(remote=self.call)
+        self.steps_done = types.SimpleNamespace(remote=lambda: None)
+
+    def call(self, task, rig_box):
+        assert rig_box == ["rig-ref"]
+        gen = FakeGenerator(self, task)
+        self.calls.append(gen)
+        self.ray.most_queued = max(self.ray.most_queued, len(self.calls))
+        return gen
+
+
+class FakeGenerator:
+    """A streaming generator of one call: 3 frame counts of 1, then the clip's result."""
+
+    def __init__(self, actor, task):
+        self.actor, self.task, self.items = actor, task, [1, 1, 1]
+
+    def ready(self) -> bool:
+        return self.actor.dead or self.actor.calls[0] is self
+
+    def __next__(self):
+        if self.actor.dead or self.task.index == self.actor.dies_on:
+            self.actor.dead = True
+            raise ActorDied("the actor died")
+        if self.items:
+            return self.items.pop()
+        self.actor.calls.pop(0)
+        self.actor.ray.ran.append((self.task.index, id(self.actor)))
+        return ClipResult(index=self.task.index, ok=True, frames=3, frames_with_face=3, worker=id(self.actor))
+
+
+class FakeRay:
+    """The part of Ray's API the engine uses; the n-th actor started dies under clip ``deaths[n]``."""
+
+    def __init__(self, cpus: int, deaths: dict[int, int]):
+        self.cpus, self.deaths = cpus, deaths
+        self.actors: list[FakeActor] = []
+        self.ran: list[tuple[int, int]] = []
+        self.most_queued = 0
+
+    def is_initialized(self):
+        return True
+
+    def cluster_resources(self):
+        return {"CPU": float(self.cpus)}
+
+    def remote(self, **_options):
+        def wrap(_cls):
+            def start(*_args):
+                actor = FakeActor(self, self.deaths.get(len(self.actors)))
+                self.actors.append(actor)
+                return actor
+            return types.SimpleNamespace(remote=start)
+        return wrap
+
+    def put(self, value):
+        assert value == "arrays"
+        return "rig-ref"
+
+    def wait(self, refs, num_returns=1, timeout=None):
+        ready = [r for r in refs if r.ready()][:num_returns]
+        assert ready, "the driver waits on clips of which none can run"
+        return ready, [r for r in refs if r not in ready]
+
+    def get(self, value):
+        return value
+
+    def kill(self, actor):
+        actor.dead = True
+
+    def shutdown(self):
+        pass
+
+
+def run(monkeypatch, clips: int, cpus: int, deaths: dict[int, int]):
+    ray = FakeRay(cpus, deaths)
+    monkeypatch.setitem(sys.modules, "ray", ray)
+    monkeypatch.setattr(ray_engine, "rig_arrays", lambda path: "arrays")
+    tasks = [ClipTask(index=i, clip=f"c{i}.mp4", rig="rig.npz", rig_sha256="r", outputs={}, config=AnimateConfig())
+             for i in range(clips)]
+    results, frames = [], {}
+
+    def on_progress(index, n):
+        frames[index] = frames.get(index, 0) + n
+
+    ray_engine.run_ray(tasks, workers=None, address=None, on_progress=on_progress, on_result=results.append)
+    return ray, results, frames
+
+
+@pytest.mark.parametrize("clips", [1, 2, 3, 4, 7])
+def test_each_clip_runs_once_with_at_most_two_per_actor(monkeypatch, clips):
+    ray, results, frames = run(monkeypatch, clips, cpus=2, deaths={})
+    assert sorted(r.index for r in results) == list(range(clips))
+    assert all(r.ok for r in results)
+    assert frames == dict.fromkeys(range(clips), 3)
+    assert sorted(i for i, _ in ray.ran) == list(range(clips))
+    assert len(ray.actors) == min(2, clips)
+    assert ray.most_queued == (2 if clips >= 4 else 1)   # a second clip only while one per actor is left
+    if clips >= 2:                                  # the two longest clips (the first two) on different actors
+        first = dict(ray.ran)
+        assert first[0] != first[1]
+
+
+def test_an_actor_dying_fails_its_clip_and_its_queued_clip_runs_elsewhere(monkeypatch):
+    # actor 0 holds clips 0 and 2 (round by round: 0 and 1 first, then 2 and 3) and dies under clip 0
+    ray, results, frames = run(monkeypatch, 6, cpus=2, deaths={0: 0})
+    by_index = {r.index: r for r in results}
+    assert sorted(by_index) == list(range(6)) and len(results) == 6
+    assert not by_index[0].ok and "Ray actor failed" in by_index[0].error and "c0.mp4" in by_index[0].error
+    assert all(by_index[i].ok for i in range(1, 6))
+    assert sorted(i for i, _ in ray.ran) == [1, 2, 3, 4, 5]     # clip 2, queued on the dead actor, ran once
+    assert len(ray.actors) == 3                                 # the dead one replaced
+    assert ray.most_queued <= 2
