@@ -106,8 +106,10 @@ def ecc_affine(template: np.ndarray, image: np.ndarray, warp: np.ndarray, iterat
     for _ in range(iterations):
         if abs(rho - last) < eps:
             break
-        # One pass: the input and its gradients warped back onto the template's grid, and the sums from which
-        # the zero-mean terms follow (the means are subtracted afterwards, over the pixels that count).
+        # One pass: the input and its gradients (a, b) warped back onto the template's grid, and the sums from
+        # which the zero-mean terms follow (the means are subtracted afterwards, over the pixels that count).
+        # The Jacobian's row at pixel (x, y) is (a x, b x, a y, b y, a, b): each row of pixels sums its products
+        # weighted by 1, x, x^2, and the rows' sums are weighted by 1, y, y^2.
         G[:] = 0.0
         pa[:] = 0.0
         pt[:] = 0.0
@@ -115,6 +117,8 @@ def ecc_affine(template: np.ndarray, image: np.ndarray, warp: np.ndarray, iterat
         n = 0
         si = st = sii = stt = sit = 0.0
         for y in range(h):
+            aa0 = aa1 = aa2 = ab0 = ab1 = ab2 = bb0 = bb1 = bb2 = 0.0
+            av0 = av1 = bv0 = bv1 = at0 = at1 = bt0 = bt1 = a0 = a1 = b0 = b1 = 0.0
             for x in range(w):
                 X = M[0, 0] * x + M[0, 1] * y + M[0, 2]
                 Y = M[1, 0] * x + M[1, 1] * y + M[1, 2]
@@ -132,38 +136,25 @@ def ecc_affine(template: np.ndarray, image: np.ndarray, warp: np.ndarray, iterat
                         w11 * _at(gx, ix + 1, iy + 1)
                     b = w00 * _at(gy, ix, iy) + w01 * _at(gy, ix + 1, iy) + w10 * _at(gy, ix, iy + 1) + \
                         w11 * _at(gy, ix + 1, iy + 1)
-                if a == 0.0 and b == 0.0:
-                    J0 = J1 = J2 = J3 = 0.0
-                else:
-                    J0, J1, J2, J3 = a * x, b * x, a * y, b * y
-                    # The Hessian's upper triangle (parameters a00, a10, a01, a11, a02, a12).
-                    G[0, 0] += J0 * J0
-                    G[0, 1] += J0 * J1
-                    G[0, 2] += J0 * J2
-                    G[0, 3] += J0 * J3
-                    G[0, 4] += J0 * a
-                    G[0, 5] += J0 * b
-                    G[1, 1] += J1 * J1
-                    G[1, 2] += J1 * J2
-                    G[1, 3] += J1 * J3
-                    G[1, 4] += J1 * a
-                    G[1, 5] += J1 * b
-                    G[2, 2] += J2 * J2
-                    G[2, 3] += J2 * J3
-                    G[2, 4] += J2 * a
-                    G[2, 5] += J2 * b
-                    G[3, 3] += J3 * J3
-                    G[3, 4] += J3 * a
-                    G[3, 5] += J3 * b
-                    G[4, 4] += a * a
-                    G[4, 5] += a * b
-                    G[5, 5] += b * b
-                    pa[0] += J0 * v
-                    pa[1] += J1 * v
-                    pa[2] += J2 * v
-                    pa[3] += J3 * v
-                    pa[4] += a * v
-                    pa[5] += b * v
+                xx = float(x)
+                q = a * a
+                aa0 += q
+                aa1 += q * xx
+                aa2 += q * xx * xx
+                q = a * b
+                ab0 += q
+                ab1 += q * xx
+                ab2 += q * xx * xx
+                q = b * b
+                bb0 += q
+                bb1 += q * xx
+                bb2 += q * xx * xx
+                q = a * v
+                av0 += q
+                av1 += q * xx
+                q = b * v
+                bv0 += q
+                bv1 += q * xx
                 nx, ny = int(np.floor(X + 0.5)), int(np.floor(Y + 0.5))
                 if 0 <= nx < W and 0 <= ny < H:
                     t = float(template[y, x])
@@ -173,18 +164,58 @@ def ecc_affine(template: np.ndarray, image: np.ndarray, warp: np.ndarray, iterat
                     sii += v * v
                     stt += t * t
                     sit += v * t
-                    pt[0] += J0 * t
-                    pt[1] += J1 * t
-                    pt[2] += J2 * t
-                    pt[3] += J3 * t
-                    pt[4] += a * t
-                    pt[5] += b * t
-                    pn[0] += J0
-                    pn[1] += J1
-                    pn[2] += J2
-                    pn[3] += J3
-                    pn[4] += a
-                    pn[5] += b
+                    q = a * t
+                    at0 += q
+                    at1 += q * xx
+                    q = b * t
+                    bt0 += q
+                    bt1 += q * xx
+                    a0 += a
+                    a1 += a * xx
+                    b0 += b
+                    b1 += b * xx
+            yy = float(y)
+            y2 = yy * yy
+            # The Hessian's upper triangle (parameters a00, a10, a01, a11, a02, a12).
+            G[0, 0] += aa2
+            G[0, 1] += ab2
+            G[0, 2] += yy * aa1
+            G[0, 3] += yy * ab1
+            G[0, 4] += aa1
+            G[0, 5] += ab1
+            G[1, 1] += bb2
+            G[1, 2] += yy * ab1
+            G[1, 3] += yy * bb1
+            G[1, 4] += ab1
+            G[1, 5] += bb1
+            G[2, 2] += y2 * aa0
+            G[2, 3] += y2 * ab0
+            G[2, 4] += yy * aa0
+            G[2, 5] += yy * ab0
+            G[3, 3] += y2 * bb0
+            G[3, 4] += yy * ab0
+            G[3, 5] += yy * bb0
+            G[4, 4] += aa0
+            G[4, 5] += ab0
+            G[5, 5] += bb0
+            pa[0] += av1
+            pa[1] += bv1
+            pa[2] += yy * av0
+            pa[3] += yy * bv0
+            pa[4] += av0
+            pa[5] += bv0
+            pt[0] += at1
+            pt[1] += bt1
+            pt[2] += yy * at0
+            pt[3] += yy * bt0
+            pt[4] += at0
+            pt[5] += bt0
+            pn[0] += a1
+            pn[1] += b1
+            pn[2] += yy * a0
+            pn[3] += yy * b0
+            pn[4] += a0
+            pn[5] += b0
         if n == 0:
             return False, -1.0, M
         mi, mt = si / n, st / n
