@@ -52,6 +52,13 @@ def blur3(img: np.ndarray) -> np.ndarray:
 
 
 @nb.njit(**INNER)
+def _floor(v: float) -> int:
+    """The largest integer <= ``v``."""
+    i = int(v)
+    return i - 1 if v < i else i
+
+
+@nb.njit(**INNER)
 def _at(img: np.ndarray, x: int, y: int) -> float:
     """Pixel (x, y) of ``img``, 0 outside it."""
     h, w = img.shape
@@ -116,13 +123,17 @@ def ecc_affine(template: np.ndarray, image: np.ndarray, warp: np.ndarray, iterat
         pn[:] = 0.0
         n = 0
         si = st = sii = stt = sit = 0.0
+        m00, m01, m02, m10, m11, m12 = M[0, 0], M[0, 1], M[0, 2], M[1, 0], M[1, 1], M[1, 2]
         for y in range(h):
+            rx = m01 * y + m02
+            ry = m11 * y + m12
             aa0 = aa1 = aa2 = ab0 = ab1 = ab2 = bb0 = bb1 = bb2 = 0.0
             av0 = av1 = bv0 = bv1 = at0 = at1 = bt0 = bt1 = a0 = a1 = b0 = b1 = 0.0
             for x in range(w):
-                X = M[0, 0] * x + M[0, 1] * y + M[0, 2]
-                Y = M[1, 0] * x + M[1, 1] * y + M[1, 2]
-                ix, iy = int(np.floor(X)), int(np.floor(Y))
+                xx = float(x)
+                X = m00 * xx + rx
+                Y = m10 * xx + ry
+                ix, iy = _floor(X), _floor(Y)
                 fx, fy = X - ix, Y - iy
                 w00, w01, w10, w11 = (1.0 - fy) * (1.0 - fx), (1.0 - fy) * fx, fy * (1.0 - fx), fy * fx
                 if 0 <= ix < W - 1 and 0 <= iy < H - 1:
@@ -136,7 +147,6 @@ def ecc_affine(template: np.ndarray, image: np.ndarray, warp: np.ndarray, iterat
                         w11 * _at(gx, ix + 1, iy + 1)
                     b = w00 * _at(gy, ix, iy) + w01 * _at(gy, ix + 1, iy) + w10 * _at(gy, ix, iy + 1) + \
                         w11 * _at(gy, ix + 1, iy + 1)
-                xx = float(x)
                 q = a * a
                 aa0 += q
                 aa1 += q * xx
@@ -155,7 +165,7 @@ def ecc_affine(template: np.ndarray, image: np.ndarray, warp: np.ndarray, iterat
                 q = b * v
                 bv0 += q
                 bv1 += q * xx
-                nx, ny = int(np.floor(X + 0.5)), int(np.floor(Y + 0.5))
+                nx, ny = _floor(X + 0.5), _floor(Y + 0.5)
                 if 0 <= nx < W and 0 <= ny < H:
                     t = float(template[y, x])
                     n += 1
