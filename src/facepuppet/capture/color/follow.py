@@ -1,5 +1,5 @@
-"""Following the face between frames: the face crop aligned on a reference crop of the acquisition (ECC), and
-the evidence that the face followed is still the face found (:class:`FollowState`).
+"""Following the face between frames: the face crop aligned on a reference crop of the acquisition (ECC,
+:mod:`.align`), and the evidence that the face followed is still the face found (:class:`FollowState`).
 
 The search starts where the alignment put the face in the last frame, so a couple of steps suffice; the eyes
 then correct the result (:class:`~facepuppet.capture.color.tracker.ColorTracker`).
@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from facepuppet.capture.color.align import blur3, ecc_affine
 from facepuppet.capture.color.config import FollowConfig
 from facepuppet.capture.color.face import CROP_EXTENT, FaceFrame, then_affine
 from facepuppet.capture.color.refind import LostFace
@@ -27,7 +28,7 @@ log = logging.getLogger(__name__)
 
 # Tuning constants       unit          what it does
 ECC_EPS = 1e-3           # correlation   the alignment's convergence tolerance (ECC)
-ECC_BLUR = 3             # pixels        Gaussian blur of the alignment's images (ECC)
+ECC_BLUR = 3             # pixels        Gaussian blur of the alignment's images (ECC; :func:`.align.blur3`)
 UNIT_JUMP = (0.65, 1.5)  # ratio         size change from the slow reference that loses the face
 UNIT_GAIN = 0.05         # per frame     gain of the slow reference size, per FRAME_MS of time followed
 FRAME_MS = 1000.0 / 30   # milliseconds  the frame time UNIT_GAIN is given for
@@ -134,6 +135,8 @@ class Follower:
         self.origin_px = -np.asarray(CROP_EXTENT[:2], dtype=float) * px   # the face frame's origin, crop pixels
         #: (h, w) float32 grey reference crop, or None before an acquisition.
         self.ref: np.ndarray | None = None
+        #: The reference crop blurred as the alignment compares it (:func:`.align.blur3`), (h, w) float32.
+        self.template: np.ndarray | None = None
         #: Crop matrix (2, 3) where the alignment last put the face.
         self.followed: np.ndarray | None = None
         #: The last alignment's correlation of the aligned crop with the reference (ECC's criterion, in [-1, 1]),
@@ -142,12 +145,13 @@ class Follower:
 
     def reset(self) -> None:
         """Forget the reference (the face is being acquired afresh)."""
-        self.ref = None
+        self.ref = self.template = None
 
     def start(self, rgb: np.ndarray, frame: FaceFrame) -> None:
         """Take the reference crop of ``frame`` in the RGB frame (H, W, 3) uint8."""
         self.followed = frame.crop_matrix(self.px)
         self.ref = self.grey(rgb, self.followed)
+        self.template = blur3(self.ref)
 
     def grey(self, rgb: np.ndarray, A: np.ndarray) -> np.ndarray:
         """The face crop of crop matrix ``A`` at ``config.scale`` resolution, grey, float32."""
@@ -165,14 +169,10 @@ class Follower:
         guess = then_affine(cv2.invertAffineTransform(self.followed), A)
         guess[:, 2] *= f
         self.correlation = None
-        try:
-            cc, warp = cv2.findTransformECC(self.ref, self.grey(rgb, A), guess.astype(np.float32),
-                                           cv2.MOTION_AFFINE, (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS,
-                                                               self.config.iterations, ECC_EPS), None, ECC_BLUR)
-        except cv2.error:
+        ok, cc, W = ecc_affine(self.template, self.grey(rgb, A), guess, self.config.iterations, ECC_EPS)
+        if not ok:
             return None
         self.correlation = float(cc)
-        W = warp.astype(float)
         W[:, 2] /= f
         G = then_affine(W, cv2.invertAffineTransform(A))      # crop pixels -> image pixels, where the face is now
         self.followed = cv2.invertAffineTransform(G)

@@ -202,6 +202,20 @@ def hsv_u8(r: int, g: int, b: int):
 
 
 @nb.njit(**INNER)
+def hue_sat_u8(r: int, g: int, b: int, v: int):
+    """:func:`hsv_u8`'s hue code and saturation of the pixel (r, g, b) of value ``v`` = max(r, g, b): the same
+    integers, with the channel holding the maximum picked by arithmetic rather than branches."""
+    diff = v - min(r, g, b)
+    s = (diff * _S_DIV[v] + 2048) >> 12
+    on_r = np.int64(v == r)
+    on_g = np.int64(v == g) * (1 - on_r)
+    on_b = 1 - on_r - on_g
+    h = (on_r * (g - b) + on_g * (b - r + 2 * diff) + on_b * (r - g + 4 * diff)) * _H_DIV[diff]
+    h = (h + 2048) >> 12
+    return h + 180 * np.int64(h < 0), s
+
+
+@nb.njit(**INNER)
 def ycrcb_u8(r: int, g: int, b: int):
     """OpenCV's 8-bit RGB -> YCrCb (same integer arithmetic): (Y, Cr, Cb)."""
     y = (r * 4899 + g * 9617 + b * 1868 + 8192) >> 14
@@ -271,9 +285,8 @@ def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarr
             v = max(r, g, b)
             i = w1 * (v - g) / max(v, 1) + kv * v + w2
             if use_hue:
-                hue, s, _ = hsv_u8(r, g, b)
-                if s >= s_min:
-                    i += w4 * hue_table[hue]
+                hue, s = hue_sat_u8(r, g, b, v)
+                i = i + w4 * hue_table[hue] if s >= s_min else i
             raw[y, x] = i
             value[y, x] = v
     low = median_of_boxes(raw, skin_boxes)
