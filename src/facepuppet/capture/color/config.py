@@ -181,7 +181,7 @@ class FilterConfig:
     enabled: bool = True
     curve: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=0.3, beta=1.5, d_cutoff=1.0))
     lid: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=0.3, beta=10.0, d_cutoff=4.0))
-    lip: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=0.3, beta=4.0, d_cutoff=2.0))
+    lip: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=0.3, beta=2.5, d_cutoff=2.0))
     shape: OneEuroConfig | None = field(default_factory=lambda: OneEuroConfig(min_cutoff=1.0, beta=10.0, d_cutoff=4.0))
     frame: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=1.0, beta=6.0, d_cutoff=1.0))
 
