@@ -59,3 +59,32 @@ def test_configs_are_grouped_keyword_only_and_checked():
         MeasureConfig(48.0)                         # keyword-only
     with pytest.raises(ValueError, match=r"outline_parts: unknown \['nose'\]"):
         MeasureConfig(outline_parts=("nose",))
+
+
+def test_the_lips_follow_a_jump_by_their_own_filter_and_the_rest_by_the_curves():
+    from facepuppet.filters import OneEuro, OneEuroConfig
+
+    # A face frame of unit 1 at the origin: face units are image pixels, so each filter's answer is known.
+    frame = FaceFrame(np.zeros(2), np.array([1.0, 0.0]))
+    cfg = FilterConfig(curve=OneEuroConfig(min_cutoff=0.3, beta=0.0), lip=OneEuroConfig(min_cutoff=3.0, beta=0.0),
+                       frame=OneEuroConfig(min_cutoff=1.0, beta=0.0))
+    lips = np.array([i for i, n in enumerate(CURVE_NAMES) if n.startswith("lip_")])
+    still = np.zeros((len(CURVE_NAMES), 4, 2))
+    moved = still + 1.0                                   # every curve jumps by one face unit
+    expect = {}
+    for name, c in (("curve", cfg.curve), ("lip", cfg.lip)):
+        f = OneEuro(c)
+        f(still, 0.033)
+        expect[name] = f(moved, 0.033)[0, 0, 0]
+    smoother = CurveSmoother(cfg, lids=False, shaped=np.zeros(0, int))
+    smoother(still, frame, 0)
+    out = smoother(moved, frame, 33)
+    others = np.setdiff1d(np.arange(len(CURVE_NAMES)), lips)
+    assert np.allclose(out[lips], expect["lip"]) and np.allclose(out[others], expect["curve"])
+    assert expect["curve"] < expect["lip"] < 1.0          # the lips' filter is the quicker one here
+    # Lips that a shape model reads go through the shape filter instead (None: unfiltered).
+    shaped = CurveSmoother(FilterConfig(curve=cfg.curve, lip=cfg.lip, frame=cfg.frame, shape=None), lids=False,
+                           shaped=lips[:2])
+    shaped(still, frame, 0)
+    out = shaped(moved, frame, 33)
+    assert np.allclose(out[lips[:2]], 1.0) and np.allclose(out[lips[2:]], expect["lip"])

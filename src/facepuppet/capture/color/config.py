@@ -166,6 +166,10 @@ class FilterConfig:
         Filter of the eyelids' middle control points when the profile has an eyelid model: as steady as
         ``curve`` when still, quicker when moving, for a blink lasts a few frames; its speed estimate is quick
         too (``d_cutoff`` 4 Hz), so that the lid's velocity down and back up within a blink opens the filter.
+    lip : OneEuroConfig
+        Filter of the lip curves' control points (unless a shape model reads them): as steady as ``curve`` when
+        still, opening faster with the speed (``beta``) and with a quicker speed estimate (``d_cutoff`` 2 Hz),
+        for a mouth opens and closes within a few frames while talking.
     shape : OneEuroConfig or None
         Filter of the control points the profile's shape models read (lips, brows, eyes)
         (:mod:`~facepuppet.capture.color.shape_models`), whose readings are steadier than the rules' and whose
@@ -177,6 +181,7 @@ class FilterConfig:
     enabled: bool = True
     curve: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=0.3, beta=1.5, d_cutoff=1.0))
     lid: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=0.3, beta=10.0, d_cutoff=4.0))
+    lip: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=0.3, beta=2.5, d_cutoff=2.0))
     shape: OneEuroConfig | None = field(default_factory=lambda: OneEuroConfig(min_cutoff=1.0, beta=10.0, d_cutoff=4.0))
     frame: OneEuroConfig = field(default_factory=lambda: OneEuroConfig(min_cutoff=1.0, beta=6.0, d_cutoff=1.0))
 

@@ -12,11 +12,13 @@ import numpy as np
 from facepuppet.capture.color.config import FilterConfig
 from facepuppet.capture.color.face import FaceFrame
 from facepuppet.capture.color.lids import EYES
+from facepuppet.capture.curves import CURVE_NAMES
 from facepuppet.filters import OneEuro
 
 __all__ = ["CurveSmoother"]
 
 _LIDS = np.ravel(EYES)                                     # the eyelids' curves
+_LIP_CURVES = np.array([i for i, n in enumerate(CURVE_NAMES) if n.startswith("lip_")])   # the lips' curves
 
 
 class CurveSmoother:
@@ -35,16 +37,20 @@ class CurveSmoother:
         self.enabled = config.enabled
         self.curve = OneEuro(config.curve)
         self.lid = OneEuro(config.lid)
+        self.lip = OneEuro(config.lip)
         self.shape = None if config.shape is None else OneEuro(config.shape)
         self.frame = OneEuro(config.frame)
         self.lids = lids
         self.shaped = shaped
+        #: The lip curves of the lip filter (those no shape model reads).
+        self.lip_curves = np.setdiff1d(_LIP_CURVES, shaped)
         self.last_ms: int | None = None
 
     def reset(self) -> None:
         """Restart every filter (the next sample is taken as it is)."""
         self.curve.reset()
         self.lid.reset()
+        self.lip.reset()
         if self.shape is not None:
             self.shape.reset()
         self.frame.reset()
@@ -65,6 +71,8 @@ class CurveSmoother:
         units = (curves - measured.origin) @ np.array([[ax / u2, -ay / u2], [ay / u2, ax / u2]])
         fr = self.frame(np.array([measured.origin, measured.axis]), dt, measured.unit)
         smooth = self.curve(units, dt)
+        if len(self.lip_curves):
+            smooth[self.lip_curves] = self.lip(units[self.lip_curves], dt)
         if self.lids:
             smooth[_LIDS, 1:3] = self.lid(units[_LIDS, 1:3], dt)
         if len(self.shaped):

@@ -47,8 +47,8 @@ HAIR_MIN = 0.04            # face units    least height of a dark run at the blo
 TEETH_LEVEL = 0.8          # fraction      pixels brighter than this times the skin's V just beyond the blob are teeth
 TEETH_SATURATION = 0.75    # fraction      teeth are less saturated than this times the skin's saturation
 TEETH_GAP = 0.1            # face units    farthest beyond the blob such a run may start (the blob's blurred edge)
-TEETH_MAX = 0.3            # face units    tallest run of teeth the opening takes in above or below the blob
-TEETH_SPLIT = 0.05         # face units    longest break inside a run of teeth (the line between two rows of teeth)
+TEETH_MAX = 0.45           # face units    tallest run of teeth the opening takes in above or below the blob
+TEETH_SPLIT = 0.08         # face units    longest break inside a run of teeth (the line between two rows of teeth)
 
 
 @nb.njit(**INNER)
