@@ -31,7 +31,7 @@ import numpy as np
 from facepuppet.capture.color.face import FaceFrame
 
 __all__ = ["CASCADE_FILE", "WINDOW", "FACE_SIZES", "EYE_PLACES", "TILTS", "TILTED_PASSES", "BOX_UNIT", "BOX_EYES",
-           "FaceWindow", "face_boxes", "face_windows", "frames_of_boxes", "inside_box", "supported", "search_area"]
+           "FaceWindow", "face_boxes", "face_windows", "supported", "search_area"]
 
 log = logging.getLogger(__name__)
 
@@ -203,22 +203,3 @@ def face_windows(rgb: np.ndarray, roi: tuple[int, int, int, int] | None = None,
 def supported(frame: FaceFrame, windows: list[FaceWindow]) -> bool:
     """Whether one of the windows holds the face frame (:meth:`FaceWindow.holds`)."""
     return any(win.holds(frame) for win in windows)
-
-
-def frames_of_boxes(boxes: np.ndarray) -> list[FaceFrame]:
-    """The first face frame of each window (N, 4): its eyes at :data:`EYE_PLACES`."""
-    out = []
-    for x, y, w, h in np.asarray(boxes, dtype=float):
-        (rx, ry), (lx, ly) = EYE_PLACES
-        out.append(FaceFrame.from_eyes(np.array([x + rx * w, y + ry * h]), np.array([x + lx * w, y + ly * h])))
-    return out
-
-
-def inside_box(frame: FaceFrame, boxes: np.ndarray) -> bool:
-    """Whether the face frame's origin (between the eyes) lies in one of the windows (N, 4) and its size fits
-    it (eye-centre distance :data:`BOX_UNIT` of the window's width)."""
-    ox, oy = (float(v) for v in frame.origin)
-    for x, y, w, h in np.asarray(boxes, dtype=float):
-        if x <= ox <= x + w and y <= oy <= y + h and BOX_UNIT[0] * w <= frame.unit <= BOX_UNIT[1] * w:
-            return True
-    return False
