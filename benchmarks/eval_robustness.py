@@ -15,7 +15,10 @@ such footage from the shared clips and measures it with the shared yardstick:
 - ``portrait``: the middle 9:16 of the frame's width kept (a phone held upright);
 - ``darker``: skin-coloured pixels (a window of Cr and Cb around skin's) darkened by a gamma of 1.6 and made
   browner (R 0.72, G 0.62, B 0.55), feathered over 3 px (a darker complexion, roughly: the lips and the warm
-  background within the window darken too).
+  background within the window darken too);
+- ``lowres``: the frame shrunk to 2/5 and saved as JPEG of quality 35, kept at that size (a cheap webcam's stream);
+- ``backlit``: the frame halved in brightness under a veiling glare that falls from white at the top to nothing
+  two thirds down (a bright window behind and above the performer: low contrast on the upper face).
 
 Background copies: the face (an oval around MediaPipe's eyes on the original frame, feathered) cut out and set on
 a made-up scene, the kind of room that fools a skin-colour model:
@@ -33,7 +36,8 @@ profile (no landmark model: the copies test the colour pipeline alone), and scor
 The bars of the shared clips are NME <= 0.05, jitter ratio <= 1.5, coverage >= 0.98.
 
 Run: ``python benchmarks/eval_robustness.py [--clips performer_a performer_c] [--variants dim warm noisy small
-face80 cool rolled mirrored portrait darker wood beige skin_object poster stage_hand] [--assets PATH] [--jobs 2]``
+face80 cool rolled mirrored portrait darker lowres backlit wood beige skin_object poster stage_hand]
+[--assets PATH] [--jobs 2]``
 (about a minute per copy of a or c on one core, MediaPipe's reference included; ``performer_b_exaggerated`` is
 three times as long).
 """
@@ -52,7 +56,8 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-VARIANTS = ("dim", "warm", "noisy", "small", "face80", "cool", "rolled", "mirrored", "portrait", "darker")
+VARIANTS = ("dim", "warm", "noisy", "small", "face80", "cool", "rolled", "mirrored", "portrait", "darker", "lowres",
+            "backlit")
 BACKGROUNDS = ("wood", "beige", "skin_object", "poster", "stage_hand")
 #: The face cut out: an oval centred this far below the eyes, with these half-axes (eye-centre distances).
 FACE_OVAL = (0.8, 1.2, 1.75)
@@ -66,6 +71,7 @@ ROLL = 15.0                 # the rolled copy's turn, degrees counter-clockwise
 #: of its edge (levels), the gamma and the RGB gains applied inside it.
 SKIN_CR, SKIN_CB, SKIN_HALF, SKIN_FEATHER = 150.0, 110.0, 15.0, 10.0
 DARKER_GAMMA, DARKER_GAINS = 1.6, (0.72, 0.62, 0.55)
+LOWRES_QUALITY = 35         # JPEG quality of the lowres copy's frames
 
 
 def _shrunk(rgb: np.ndarray, f: float) -> np.ndarray:
@@ -148,6 +154,14 @@ def altered(rgb: np.ndarray, variant: str, rng: np.random.Generator, unit: float
         u = x / 255.0
         dark = u ** DARKER_GAMMA * np.array(DARKER_GAINS, dtype=np.float32)
         x = 255.0 * (m * dark + (1.0 - m) * u)
+    elif variant == "lowres":
+        h, w = rgb.shape[:2]
+        s = cv2.resize(rgb, (w * 2 // 5, h * 2 // 5), interpolation=cv2.INTER_AREA)
+        ok, jpeg = cv2.imencode(".jpg", s, [cv2.IMWRITE_JPEG_QUALITY, LOWRES_QUALITY])
+        return cv2.imdecode(jpeg, cv2.IMREAD_UNCHANGED)
+    elif variant == "backlit":
+        glare = np.clip(np.linspace(1.0, 0.0, rgb.shape[0], dtype=np.float32) * 1.4 - 0.5, 0.0, 1.0)
+        x = x * 0.5 + 255.0 * glare[:, None, None]
     else:
         raise ValueError(f"unknown variant {variant!r}; choose from {', '.join(VARIANTS)}")
     return np.clip(x + 0.5, 0, 255).astype(np.uint8)
@@ -263,8 +277,8 @@ def composited(src: Path, variant: str, model: str):
 
 
 def write_copy(src: Path, variant: str, out: Path, model: str | None = None) -> None:
-    """Write the ``variant`` copy of the video ``src`` to ``out`` (MPEG-4, same size and rate); the background
-    copies and ``face80`` need MediaPipe's ``model`` file."""
+    """Write the ``variant`` copy of the video ``src`` to ``out`` (MPEG-4, same rate, same size but for
+    ``lowres``); the background copies and ``face80`` need MediaPipe's ``model`` file."""
     import cv2
 
     cap = cv2.VideoCapture(str(src))
