@@ -91,6 +91,27 @@ def test_blank_frame_is_lost_then_the_face_is_reacquired(clip):
     assert _nme(back.curves, ref[10]).mean() < 0.1
 
 
+def test_a_frame_whose_crop_no_longer_looks_like_a_face_is_marked(clip, monkeypatch):
+    from facepuppet.capture.color.likeness import FaceTemplate
+
+    frames, _ = clip
+    tracker = ColorTracker()
+    assert tracker.track(frames[0], 0).valid
+    checked = []
+
+    def unlike(self, C, S_px):
+        checked.append(k)
+        return -1.0
+
+    monkeypatch.setattr(FaceTemplate, "score", unlike)
+    got = []
+    for k in range(1, 8):
+        got.append(tracker.track(frames[k], 100 * k).valid)
+    assert checked, "the followed crop's likeness was never checked"
+    first = checked[0]
+    assert all(got[: first - 1]) and not got[first - 1]       # the frame of the failed check itself is marked
+
+
 @pytest.mark.parametrize("light", ["dim", "warm"])
 def test_tracks_the_clip_in_a_changed_light(clip, light):
     """The clip darkened to 35 %, or lit warm (red up, blue down): the face is found and followed as in the

@@ -233,6 +233,8 @@ class ColorTracker:
             fol.check_in = cfg.check_every
             if not fol.still_like_a_face(self._template.score(*self._last_measured), cfg):
                 fol.drop(timestamp_ms, doubted=True)
+                self.seen = None
+                return FrameFeatures.lost(len(CURVE_NAMES), len(POINT_NAMES))
         curves = self._smoother(curves, result.frame, timestamp_ms)
         return self._features(curves, (w, h), self._turn(timestamp_ms))
 
