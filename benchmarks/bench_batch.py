@@ -17,8 +17,9 @@ the local engine's worker processes and imports as much as Ray's):
 - ``facepuppet batch --engine ray --address 127.0.0.1:PORT`` on a Ray cluster of 2 CPUs started for that run
   (``ray start --head --block`` on loopback, then one driver that connects and leaves, untimed: the first
   connection to a new cluster waits for its start-up; stopped after the run, so that no idle cluster runs beside
-  the other configurations): what a cluster's user pays per batch; ``--cluster-niceness`` sets its workers'
-  niceness (Ray's own default 15);
+  the other configurations): what a cluster's user pays per batch; one such configuration per
+  ``--cluster-niceness`` value, the niceness of the cluster's workers (default 15, Ray's own, which puts the
+  actors behind every other process of a shared machine, and 0, a local worker's);
 - ``facepuppet batch --engine ray --workers 2`` with its own Ray runtime (started and stopped by the command:
   the cold case, Ray's start-up and shutdown included; ``--no-cold`` leaves it out);
 - ``facepuppet batch --workers 1`` pinned to one core (Linux; ``--no-one-core`` leaves it out): the check that
@@ -73,6 +74,9 @@ ONE_WORKER, TWO_WORKERS = "batch --workers 1", "batch --workers 2"
 ONE_CORE = "batch --workers 1, pinned to 1 core"
 RAY_COLD = "Ray, own runtime (cold), 2 CPUs"
 RAY_CLUSTER = "Ray, existing cluster of 2 CPUs"
+
+#: Niceness Ray gives its worker processes unless told (``RAY_worker_niceness``).
+RAY_NICENESS = 15
 
 #: Seconds to wait for the benchmark's Ray cluster to start, and to stop.
 CLUSTER_START_S, CLUSTER_STOP_S = 180, 60
@@ -285,6 +289,15 @@ def facepuppet(*args: str, cpus: set[int] | None = None, cluster: Cluster | None
 SPIN = 30_000_000
 
 
+def autogroup() -> bool:
+    """Whether Linux shares the CPU between sessions first (``sched_autogroup_enabled``), then between the
+    processes of each session."""
+    try:
+        return Path("/proc/sys/kernel/sched_autogroup_enabled").read_text().strip() == "1"
+    except OSError:
+        return False
+
+
 def machine_scaling() -> float:
     """How much faster 2 processes spinning a CPU-bound loop finish 2 loops than 1 process does (2.0: two whole
     cores; less where the 2 CPUs share a physical core or the machine is busy)."""
@@ -467,8 +480,9 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=3, help="rounds of the configurations, interleaved (module "
                     "notes): the bars' figures are the rounds' median ratios")
     ap.add_argument("--no-cold", action="store_true", help="leave out Ray with its own runtime (cold)")
-    ap.add_argument("--cluster-niceness", type=int, help="niceness of the benchmark cluster's workers "
-                    "(RAY_worker_niceness for ray start; default Ray's own, 15)")
+    ap.add_argument("--cluster-niceness", type=int, nargs="+", default=[RAY_NICENESS, 0],
+                    help="niceness of the Ray cluster's workers (RAY_worker_niceness for ray start), one cluster "
+                    f"configuration each (default {RAY_NICENESS}, Ray's own, and 0, a local worker's)")
     ap.add_argument("--stages", action="store_true", help="first, where one worker's CPU goes (module notes)")
     ap.add_argument("--stages-of", nargs="+", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
@@ -527,12 +541,13 @@ def bench(args, assets: Path, model: str, tmp: Path) -> int:
 
     configs = [(ONE_WORKER, ["--workers", "1"], "local"), (TWO_WORKERS, ["--workers", "2"], "local")]
     if ray:
-        configs.append((RAY_CLUSTER, ["--engine", "ray"], "cluster"))
+        for nice in args.cluster_niceness:
+            configs.append((RAY_CLUSTER if nice == RAY_NICENESS else f"{RAY_CLUSTER}, workers nice {nice}",
+                            ["--engine", "ray"], ("cluster", nice)))
         if not args.no_cold:
             configs.append((RAY_COLD, ["--engine", "ray", "--workers", "2"], "own"))
     if not args.no_one_core and hasattr(os, "sched_setaffinity"):
         configs.append((ONE_CORE, ["--workers", "1"], {min(os.sched_getaffinity(0))}))
-    cluster_env = ENV if args.cluster_niceness is None else {**ENV, "RAY_worker_niceness": str(args.cluster_niceness)}
     cluster = None
     rounds: list[dict[str, Run]] = []
     try:
@@ -543,9 +558,10 @@ def bench(args, assets: Path, model: str, tmp: Path) -> int:
             done: dict[str, Run] = {}
             for label, extra, where in order:
                 out = tmp / f"round{k + 1}" / "".join(ch if ch.isalnum() else "_" for ch in label)
-                if where == "cluster":          # a new cluster for its run alone: no idle cluster beside the others
+                on_cluster = isinstance(where, tuple)
+                if on_cluster:                  # a new cluster for its run alone: no idle cluster beside the others
                     t0 = time.perf_counter()
-                    cluster = Cluster(2, cluster_env)
+                    cluster = Cluster(2, {**ENV, "RAY_worker_niceness": str(where[1])})
                     started = time.perf_counter() - t0
                     print(f"  (Ray cluster at {cluster.address}: started in {started:.1f} s, a first driver "
                           f"connected and left in {cluster.first_driver():.1f} s; neither timed)")
@@ -554,8 +570,8 @@ def bench(args, assets: Path, model: str, tmp: Path) -> int:
                 load = os.getloadavg()[0]
                 dt, cpu = facepuppet("batch", *map(str, clips), "-o", str(out), "--csv", *common, *extra,
                                      cpus=where if isinstance(where, set) else None,
-                                     cluster=cluster if where == "cluster" else None,
-                                     ray=where in ("cluster", "own"), timeline=where in ("cluster", "own"))
+                                     cluster=cluster, ray=on_cluster or where == "own",
+                                     timeline=on_cluster or where == "own")
                 if cluster is not None:
                     cluster.stop()
                     cluster = None
@@ -573,6 +589,11 @@ def bench(args, assets: Path, model: str, tmp: Path) -> int:
     summary(rounds, ratios, t_single, cpu_single, frames, args)
     print(f"the machine: 2 processes of a CPU-bound loop go {machine_scaling():.2f}x as fast as 1 (the ceiling "
           f"of any 2-worker speed-up here)")
+    if autogroup():
+        print("Linux shares the CPU between sessions here (autogroup): each run is a session of its own, its "
+              "workers sharing its share, and a Ray cluster's actors are in the cluster's session, beside the "
+              "driver's: while other sessions work, the configurations' wall times do not compare (their CPU "
+              "seconds do); the bars need a quiet machine")
     print(f"load: {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f} {os.getloadavg()[2]:.2f} "
           f"(1, 5, 15 min) on {os.cpu_count()} cores; the whole benchmark {time.perf_counter() - t_start:.0f} s")
     return 0
@@ -598,14 +619,21 @@ def same_bytes(label: str, out: Path, single_dir: Path, clips: list[Path]) -> No
 def ratios(done: dict[str, Run], t_single: float) -> list[tuple[str, str, float]]:
     """A round's ratios: (name, text, value) for the 2-worker speed-up over 1 worker, Ray's overheads over the
     local engine with 2 workers (on the existing cluster: the bar's; with its own runtime), the pinned worker's
-    time over the unpinned one's, and 1 worker against the single runs (measured once, before the rounds)."""
+    time over the unpinned one's, and 1 worker against the single runs (measured once, before the rounds); beside
+    the time ratios, the CPU ones (``CPU``: the extra CPU seconds an engine spends, which other work on the machine
+    hardly changes)."""
     out = []
     one, two = done[ONE_WORKER].seconds, done[TWO_WORKERS].seconds
     out.append(("2 workers / 1 worker", f"{one / two:.2f}x", one / two))
-    for label, name in ((RAY_CLUSTER, "Ray cluster overhead"), (RAY_COLD, "Ray own runtime overhead")):
-        if label in done:
+    cpu_two = done[TWO_WORKERS].cpu
+    extra = 100 * (cpu_two - done[ONE_WORKER].cpu) / done[ONE_WORKER].cpu
+    out.append(("CPU: 2 workers over 1 worker", f"{extra:+.1f} %", extra))
+    for label in done:
+        if label.startswith("Ray"):
             over = 100 * (done[label].seconds - two) / two
-            out.append((name, f"{over:+.1f} %", over))
+            out.append((f"{label}: overhead", f"{over:+.1f} %", over))
+            extra = 100 * (done[label].cpu - cpu_two) / cpu_two
+            out.append((f"CPU: {label} over 2 workers", f"{extra:+.1f} %", extra))
     if ONE_CORE in done:
         out.append(("1 worker pinned / unpinned", f"{done[ONE_CORE].seconds / one:.2f}x",
                     done[ONE_CORE].seconds / one))
@@ -637,10 +665,10 @@ def summary(rounds: list[dict[str, Run]], ratios_of, t_single: float, cpu_single
     for r in rounds:
         for name, _, value in ratios_of(r, t_single):
             per.setdefault(name, []).append(value)
-    bars = {"2 workers / 1 worker": "bar >= 1.7x", "Ray cluster overhead": "bar <= 15 %"}
+    bars = {"2 workers / 1 worker": "bar >= 1.7x", f"{RAY_CLUSTER}: overhead": "bar <= 15 %"}
     for name, values in per.items():
-        unit = (lambda v: f"{v:+.1f} %") if "overhead" in name else (lambda v: f"{v:.2f}x")
-        print(f"{name:<34} median {unit(statistics.median(values)):>9} (spread {unit(min(values))} to "
+        unit = (lambda v: f"{v:+.1f} %") if "over" in name else (lambda v: f"{v:.2f}x")
+        print(f"{name:<56} median {unit(statistics.median(values)):>9} (spread {unit(min(values))} to "
               f"{unit(max(values))}; rounds {', '.join(unit(v) for v in values)})"
               + (f"  {bars[name]}" if name in bars else ""))
 
