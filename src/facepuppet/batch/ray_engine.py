@@ -26,7 +26,6 @@ import time
 
 from facepuppet.batch.timeline import Timeline, process_start_time
 from facepuppet.batch.worker import (
-    PROGRESS_EVERY_S,
     ClipResult,
     ClipTask,
     cached_rig,
@@ -110,8 +109,9 @@ class ClipWorker:
 
         ``rig_box`` holds the object reference of the rig file's arrays (in a list, so that Ray hands it over
         unresolved and it is fetched only by an actor that has not kept the rig yet), or the arrays or the rig
-        itself. The first clip waits for
-        the warm-up after fetching its rig.
+        itself. The first clip waits for the warm-up after fetching its rig. The clip runs on a thread of its
+        own, which sends its frame counts and last an end mark through a queue: the generator returns as soon
+        as the clip has.
         """
         self.clips += 1
         if self.clips == 1:
@@ -131,21 +131,14 @@ class ClipWorker:
                 done.append(run_clip(task, _CountQueue(counts), rig))
             except BaseException as e:      # noqa: BLE001 - handed to the generator, which raises it
                 failure.append(e)
+            finally:
+                counts.put(None)            # the end: the generator stops waiting at once
 
         worker = threading.Thread(target=clip, name=f"facepuppet-clip-{task.index}", daemon=True)
         worker.start()
-        while worker.is_alive():
-            try:
-                frames = counts.get(timeout=PROGRESS_EVERY_S)
-            except queue_module.Empty:
-                continue
+        while (frames := counts.get()) is not None:
             yield frames
         worker.join()
-        left = 0
-        while not counts.empty():
-            left += counts.get_nowait()
-        if left:
-            yield left
         if failure:
             raise failure[0]
         yield done[0]
