@@ -43,8 +43,10 @@ a virtual machine may share one core).
 on the worker's own thread (``time.thread_time`` around decoding, tracking, its first frame per clip, mapping,
 the outputs) and the process's settings that size and place its threads (CPUs, niceness, the pools' variables,
 OpenCV's and numba's threads, the BLAS pools), with 1 thread (a worker's) and with the machine's cores in its
-native pools (``animate``'s default), each in a process of its own, and with 1 thread inside a Ray actor of
-1 CPU (a runtime of its own): the same clips' work in a local worker and in an actor, side by side.
+native pools (``animate``'s default), each in a process of its own, with 1 thread inside a Ray actor of
+1 CPU (a runtime of its own): the same clips' work in a local worker and in an actor, and in two 1-thread
+processes at once with every other clip each (what two workers side by side spend on each stage). With
+``--repeat 0`` only these.
 
 Run: ``python benchmarks/bench_batch.py [--copies 12] [--repeat 3] [--profile builtin|trained] [--assets PATH]
 [--no-ray] [--no-cold] [--no-one-core] [--cluster-niceness N] [--rig RIG.npz] [--stages]``
@@ -438,7 +440,9 @@ def settings() -> str:
 
 def stage_runs(rig: Path, clips: list[Path], ray: bool) -> None:
     """:func:`stages` over the batch's clips in a process of its own with 1 thread in its pools (a local
-    worker's), with the machine's cores (``animate``'s), and inside a Ray actor of 1 CPU (its own runtime)."""
+    worker's), with the machine's cores (``animate``'s), inside a Ray actor of 1 CPU (its own runtime), and in two
+    1-thread processes at once, each with every other clip (two workers' share of the work, side by side: what
+    each stage costs when two workers run together)."""
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1
     for threads in sorted({1, cores}):
         subprocess.run([sys.executable, __file__, "--stages-of", str(threads), str(rig), *map(str, clips)],
@@ -446,6 +450,13 @@ def stage_runs(rig: Path, clips: list[Path], ray: bool) -> None:
     if ray:
         subprocess.run([sys.executable, __file__, "--stages-of", "ray", str(rig), *map(str, clips)],
                        env=ENV, check=True)
+    pair = [subprocess.Popen([sys.executable, __file__, "--stages-of", "1", str(rig), *map(str, clips[k::2])],
+                             env=ENV, stdout=subprocess.PIPE, text=True) for k in range(2)]
+    for k, proc in enumerate(pair):
+        out, _ = proc.communicate()
+        print(f"\n(two at once, {k + 1} of 2, clips {k + 1}, {k + 3}, ...)" + out.rstrip("\n"))
+        if proc.returncode:
+            raise SystemExit(f"--stages-of failed ({proc.returncode})")
 
 
 def stages_in_ray(rig: str, clips: list[str]) -> None:
@@ -529,6 +540,8 @@ def bench(args, assets: Path, model: str, tmp: Path) -> int:
     if args.stages:
         stage_runs(rig, clips, ray)
 
+    if args.repeat < 1:                         # nothing to compare the single runs with
+        return 0
     single_dir = tmp / "single"
     single_dir.mkdir()
     t0, load0 = time.perf_counter(), os.getloadavg()[0]
@@ -578,7 +591,7 @@ def bench(args, assets: Path, model: str, tmp: Path) -> int:
                 same_bytes(label, out, single_dir, clips)
                 shutil.rmtree(out, ignore_errors=True)
                 done[label] = Run(dt, cpu, load)
-                print(f"  {label:<38}{dt:>7.1f} s{frames / dt:>6.0f} frames/s{cpu:>7.1f} CPU s"
+                print(f"  {label:<50}{dt:>7.1f} s{frames / dt:>6.0f} frames/s{cpu:>7.1f} CPU s"
                       f"{1000 * cpu / frames:>6.1f} CPU ms/frame{cpu / dt:>6.2f} cores  load {load:.2f}", flush=True)
             rounds.append(done)
             print("  round " + str(k + 1) + ": " + "; ".join(f"{name} {value}" for name, value, _ in
@@ -647,15 +660,16 @@ def summary(rounds: list[dict[str, Run]], ratios_of, t_single: float, cpu_single
         return
     print(f"\n{args.copies} clips, {frames} frames (colour tracker, GLB + CSV), {len(rounds)} round(s), the "
           f"configurations interleaved (their order rotated each round); each run one process, start-up included")
-    print(f"{'median over the rounds':<38}{'seconds':>9}{'frames/s':>10}{'CPU s':>8}{'CPU ms/frame':>14}"
+    w = max(38, *(len(label) + 1 for label in rounds[0]))
+    print(f"{'median over the rounds':<{w}}{'seconds':>9}{'frames/s':>10}{'CPU s':>8}{'CPU ms/frame':>14}"
           f"{'cores':>7}{'load':>13}")
-    print(f"{'sum of single animate runs (once)':<38}{t_single:>9.1f}{frames / t_single:>10.0f}{cpu_single:>8.1f}"
+    print(f"{'sum of single animate runs (once)':<{w}}{t_single:>9.1f}{frames / t_single:>10.0f}{cpu_single:>8.1f}"
           f"{1000 * cpu_single / frames:>14.1f}{cpu_single / t_single:>7.2f}")
     for label in rounds[0]:
         runs = [r[label] for r in rounds if label in r]
         dt, cpu = statistics.median(r.seconds for r in runs), statistics.median(r.cpu for r in runs)
         loads = [r.load for r in runs]
-        print(f"{label:<38}{dt:>9.1f}{frames / dt:>10.0f}{cpu:>8.1f}{1000 * cpu / frames:>14.1f}{cpu / dt:>7.2f}"
+        print(f"{label:<{w}}{dt:>9.1f}{frames / dt:>10.0f}{cpu:>8.1f}{1000 * cpu / frames:>14.1f}{cpu / dt:>7.2f}"
               f"{min(loads):>7.2f}-{max(loads):.2f}")
     print("CPU s: user + system of the run's processes (Ray: every process of its own runtime, or of the existing "
           f"cluster over the run, looked at every {SAMPLE_S} s); cores: CPU s / seconds; load: the 1-minute load "
@@ -666,9 +680,10 @@ def summary(rounds: list[dict[str, Run]], ratios_of, t_single: float, cpu_single
         for name, _, value in ratios_of(r, t_single):
             per.setdefault(name, []).append(value)
     bars = {"2 workers / 1 worker": "bar >= 1.7x", f"{RAY_CLUSTER}: overhead": "bar <= 15 %"}
+    width = max(map(len, per)) + 1
     for name, values in per.items():
         unit = (lambda v: f"{v:+.1f} %") if "over" in name else (lambda v: f"{v:.2f}x")
-        print(f"{name:<56} median {unit(statistics.median(values)):>9} (spread {unit(min(values))} to "
+        print(f"{name:<{width}} median {unit(statistics.median(values)):>9} (spread {unit(min(values))} to "
               f"{unit(max(values))}; rounds {', '.join(unit(v) for v in values)})"
               + (f"  {bars[name]}" if name in bars else ""))
 
