@@ -8,46 +8,54 @@ uses without ``--profile``), or with a profile trained on the first clip (MediaP
 clip (``--profile trained``: one performer's profile on other performers, which makes the tracker search for
 the face again on most frames of performer_c: a heavier and more threaded load than a take of one's own).
 
-Timed in the same run, each as its own ``python -m facepuppet`` process (start-up included, as a user runs it):
+Timed in the same run, each as its own ``python -m facepuppet`` process (start-up included, as a user runs it:
+the local engine's worker processes and imports as much as Ray's):
 
-- the sum of single ``facepuppet animate`` runs, one per clip (the reference);
+- the sum of single ``facepuppet animate`` runs, one per clip, once before the rounds (the reference, and the
+  outputs every batch must equal byte for byte);
 - ``facepuppet batch --workers 1``, ``--workers 2`` (local engine);
-- ``facepuppet batch --engine ray --workers 2`` with its own Ray runtime (started and stopped by the command:
-  the cold case, Ray's start-up and shutdown included);
-- ``facepuppet batch --engine ray --address 127.0.0.1:PORT`` on a Ray cluster of 2 CPUs started once before
+- ``facepuppet batch --engine ray --address 127.0.0.1:PORT`` on a Ray cluster of 2 CPUs started for that run
   (``ray start --head --block`` on loopback, then one driver that connects and leaves, untimed: the first
-  connection to a new cluster waits for its start-up; stopped at the end): what a cluster's user pays per batch;
-- ``facepuppet batch --workers 1`` pinned to one core (Linux): the check that one worker is one core's worth of
-  work (its native pools have one thread each: the same time as unpinned).
+  connection to a new cluster waits for its start-up; stopped after the run, so that no idle cluster runs beside
+  the other configurations): what a cluster's user pays per batch; one such configuration per
+  ``--cluster-niceness`` value, the niceness of the cluster's workers (default 15, Ray's own, which puts the
+  actors behind every other process of a shared machine, and 0, a local worker's);
+- ``facepuppet batch --engine ray --workers 2`` with its own Ray runtime (started and stopped by the command:
+  the cold case, Ray's start-up and shutdown included; ``--no-cold`` leaves it out);
+- ``facepuppet batch --workers 1`` pinned to one core (Linux; ``--no-one-core`` leaves it out): the check that
+  one worker is one core's worth of work.
 
-Printed: seconds, frames per second, the CPU seconds of the run's processes (user + system of every process the
-run waited for: the batch and its local workers; for Ray, of every process of the batch's session, its own Ray
-runtime included, and of the existing cluster's over the run, looked at 5 times a second) and
-the cores they kept busy on average (CPU / wall), the speed-up over ``--workers 1`` and over the single runs,
-Ray's overhead against the local engine with the same workers (cold and on the existing cluster: the bar is
-the latter's, the per-batch cost of a cluster's user), 2 workers on 2 cores against 1 worker on 1 core,
-and the 1-minute load average as each run started (other work on the machine slows the wall times, hardly the
-CPU seconds). Bars: 2 workers >= 1.7x one worker (2-core machine); Ray's overhead <= 15 % of the local engine's
-time. Every batch's outputs are checked byte for byte against the single runs'. Last, the machine's own
-scaling: a CPU-bound loop in 2 processes at once against 1 (2 CPUs of a virtual machine may share one core).
+The machine's speed moves between runs (other work, the host), so the configurations run interleaved in
+``--repeat`` rounds, the order rotated by one each round, and the bars are judged on each round's ratios (runs
+minutes apart): the 2-worker speed-up over 1 worker, Ray's overhead over the local engine with 2 workers (on
+the existing cluster: the bar's; with its own runtime), the pinned worker against the unpinned one, 1 worker
+against the single runs. Printed: each run (seconds, frames per second, CPU seconds of the run's processes,
+CPU ms a frame, cores kept busy, the 1-minute load average as it started), each round's ratios, the median of
+each ratio over the rounds with its spread, and each configuration's median run. Ray runs print the engine's
+timeline (``facepuppet -v batch``: the actors' niceness and start-up steps, their clips and idle gaps). CPU
+seconds: user + system of every process the run waited for (the batch and its local workers); for Ray, of
+every process of the batch's session, its own Ray runtime included, and of the cluster's over the run, looked
+at 5 times a second. Bars: 2 workers >= 1.7x one worker (2-core machine); Ray's overhead <= 15 % of the local
+engine's time. Last, the machine's own scaling: a CPU-bound loop in 2 processes at once against 1 (2 CPUs of
+a virtual machine may share one core).
 
 ``--stages`` prints, before the runs, where one worker's CPU goes over the batch's clips: each stage's CPU seconds
 on the worker's own thread (``time.thread_time`` around decoding, tracking, its first frame per clip, mapping,
-the outputs), with 1 thread (a worker's) and with the machine's cores in its native pools (``animate``'s
-default), in a process of its own each, and the CPU of the whole process (its other threads: FFmpeg's decoder,
-OpenCV's pool).
+the outputs) and the process's settings that size and place its threads (CPUs, niceness, the pools' variables,
+OpenCV's and numba's threads, the BLAS pools), with 1 thread (a worker's) and with the machine's cores in its
+native pools (``animate``'s default), each in a process of its own, with 1 thread inside a Ray actor of
+1 CPU (a runtime of its own): the same clips' work in a local worker and in an actor, and in two 1-thread
+processes at once with every other clip each (what two workers side by side spend on each stage). With
+``--repeat 0`` only these.
 
-Run: ``python benchmarks/bench_batch.py [--copies 12] [--profile builtin|trained] [--assets PATH] [--no-ray]
-[--no-one-core] [--rig RIG.npz] [--stages] [--repeat N]``
-
-``--repeat N`` (default 3): N pairs of ``--workers 2`` and Ray on an existing cluster, run alternately,
-each printed, with the median overhead and its spread (the bar's figure). Ray runs print the engine's
-timeline (``facepuppet -v batch``).
+Run: ``python benchmarks/bench_batch.py [--copies 12] [--repeat 3] [--profile builtin|trained] [--assets PATH]
+[--no-ray] [--no-cold] [--no-one-core] [--cluster-niceness N] [--rig RIG.npz] [--stages]``
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import importlib.util
 import os
 import resource
@@ -64,9 +72,13 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 CLIPS = ("performer_a", "performer_b_exaggerated", "performer_c")
+ONE_WORKER, TWO_WORKERS = "batch --workers 1", "batch --workers 2"
 ONE_CORE = "batch --workers 1, pinned to 1 core"
 RAY_COLD = "Ray, own runtime (cold), 2 CPUs"
 RAY_CLUSTER = "Ray, existing cluster of 2 CPUs"
+
+#: Niceness Ray gives its worker processes unless told (``RAY_worker_niceness``).
+RAY_NICENESS = 15
 
 #: Seconds to wait for the benchmark's Ray cluster to start, and to stop.
 CLUSTER_START_S, CLUSTER_STOP_S = 180, 60
@@ -279,6 +291,15 @@ def facepuppet(*args: str, cpus: set[int] | None = None, cluster: Cluster | None
 SPIN = 30_000_000
 
 
+def autogroup() -> bool:
+    """Whether Linux shares the CPU between sessions first (``sched_autogroup_enabled``), then between the
+    processes of each session."""
+    try:
+        return Path("/proc/sys/kernel/sched_autogroup_enabled").read_text().strip() == "1"
+    except OSError:
+        return False
+
+
 def machine_scaling() -> float:
     """How much faster 2 processes spinning a CPU-bound loop finish 2 loops than 1 process does (2.0: two whole
     cores; less where the 2 CPUs share a physical core or the machine is busy)."""
@@ -302,9 +323,10 @@ def frame_count(path: Path) -> int:
     return n
 
 
-def stages(threads: int, rig: str, clips: list[str]) -> None:
-    """One worker's clips in this process with ``threads`` threads in its pools; print each stage's CPU seconds
-    on this thread (the wrappers below time the library's public methods, they change nothing)."""
+def stages(threads: int, rig: str, clips: list[str], where: str = "in a process of its own") -> None:
+    """One worker's clips in this process with ``threads`` threads in its pools; print the process's settings
+    that size its threads and each stage's CPU seconds on this thread (the wrappers below time the library's
+    public methods, they change nothing)."""
     import collections
 
     clock = time.thread_time
@@ -386,13 +408,74 @@ def stages(threads: int, rig: str, clips: list[str]) -> None:
     finally:
         shutil.rmtree(out, ignore_errors=True)
     wall, main, cpu = time.perf_counter() - w0, clock() - t0, time.process_time() - c0
-    print(f"\none worker's stages, {threads} thread(s) in its pools, {len(clips)} clips, {frames} frames: "
+    print(f"\none worker's stages {where}, {threads} thread(s) in its pools, {len(clips)} clips, {frames} frames: "
           f"{wall:.1f} s, process {cpu:.1f} CPU s ({cpu / wall:.2f} cores), its own thread {main:.1f} CPU s, "
           f"its other threads {cpu - main:.1f} CPU s (load {os.getloadavg()[0]:.2f})")
+    print(f"  settings: {settings()}")
     named = sum(v for k, v in spent.items() if not k.startswith(" ") and k not in ("imports", "clips, all stages"))
     spent["the rest (frame loop, colour conversion, progress)"] = spent["clips, all stages"] - named
     for name, v in spent.items():
         print(f"  {name:<52}{v:>7.2f} CPU s{1000 * v / max(frames, 1):>8.2f} ms/frame")
+
+
+def settings() -> str:
+    """What sizes this process's threads and places them: its CPUs, niceness, threads now, the pools' variables,
+    OpenCV's threads, numba's threading layer and threads, and the BLAS pools (threadpoolctl)."""
+    import cv2
+    import numba
+
+    names = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "OPENCV_FFMPEG_THREADS")
+    text = [f"CPUs {sorted(os.sched_getaffinity(0)) if hasattr(os, 'sched_getaffinity') else '?'}",
+            f"nice {os.nice(0)}", f"threads {len(list(Path('/proc/self/task').glob('*')))}",
+            *(f"{n}={os.environ.get(n, '-')}" for n in names), f"cv2 threads {cv2.getNumThreads()}",
+            f"numba threads {numba.config.NUMBA_NUM_THREADS}, layer {numba.config.THREADING_LAYER}"]
+    try:
+        from threadpoolctl import threadpool_info
+
+        text.append("pools " + ", ".join(f"{i['internal_api']} {i['num_threads']}" for i in threadpool_info()))
+    except ImportError:
+        pass
+    return "; ".join(text)
+
+
+def stage_runs(rig: Path, clips: list[Path], ray: bool) -> None:
+    """:func:`stages` over the batch's clips in a process of its own with 1 thread in its pools (a local
+    worker's), with the machine's cores (``animate``'s), inside a Ray actor of 1 CPU (its own runtime), and in two
+    1-thread processes at once, each with every other clip (two workers' share of the work, side by side: what
+    each stage costs when two workers run together)."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1
+    for threads in sorted({1, cores}):
+        subprocess.run([sys.executable, __file__, "--stages-of", str(threads), str(rig), *map(str, clips)],
+                       env=ENV, check=True)
+    if ray:
+        subprocess.run([sys.executable, __file__, "--stages-of", "ray", str(rig), *map(str, clips)],
+                       env=ENV, check=True)
+    pair = [subprocess.Popen([sys.executable, __file__, "--stages-of", "1", str(rig), *map(str, clips[k::2])],
+                             env=ENV, stdout=subprocess.PIPE, text=True) for k in range(2)]
+    for k, proc in enumerate(pair):
+        out, _ = proc.communicate()
+        print(f"\n(two at once, {k + 1} of 2, clips {k + 1}, {k + 3}, ...)" + out.rstrip("\n"))
+        if proc.returncode:
+            raise SystemExit(f"--stages-of failed ({proc.returncode})")
+
+
+def stages_in_ray(rig: str, clips: list[str]) -> None:
+    """:func:`stages` with 1 thread inside a Ray actor of 1 CPU, on a Ray runtime of this process's own."""
+    import ray
+
+    ray.init(address="local", num_cpus=2, include_dashboard=False, logging_level="WARNING")
+    try:
+        @ray.remote(num_cpus=1)
+        class Stages:
+            def run(self, rig, clips):
+                stages(1, rig, clips, where="in a Ray actor")
+                sys.stdout.flush()
+
+        actor = Stages.remote()
+        ray.get(actor.run.remote(rig, clips))
+        time.sleep(1.0)                         # the actor's printed lines reach this process's stdout
+    finally:
+        ray.shutdown()
 
 
 def main(argv=None) -> int:
@@ -405,13 +488,21 @@ def main(argv=None) -> int:
                     help="the colour tracker's profile: built-in, or trained on the first clip (module notes)")
     ap.add_argument("--no-one-core", action="store_true", help="leave out the run of 1 worker pinned to 1 core")
     ap.add_argument("--rig", help="a rig made before (with the built-in profile) instead of making one")
-    ap.add_argument("--repeat", type=int, default=3, help="pairs of local 2-worker and Ray-cluster runs, "
-                    "alternately, for the median overhead (the first pair is the table's)")
+    ap.add_argument("--repeat", type=int, default=3, help="rounds of the configurations, interleaved (module "
+                    "notes): the bars' figures are the rounds' median ratios")
+    ap.add_argument("--no-cold", action="store_true", help="leave out Ray with its own runtime (cold)")
+    ap.add_argument("--cluster-niceness", type=int, nargs="+", default=[RAY_NICENESS, 0],
+                    help="niceness of the Ray cluster's workers (RAY_worker_niceness for ray start), one cluster "
+                    f"configuration each (default {RAY_NICENESS}, Ray's own, and 0, a local worker's)")
     ap.add_argument("--stages", action="store_true", help="first, where one worker's CPU goes (module notes)")
     ap.add_argument("--stages-of", nargs="+", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    sys.stdout.reconfigure(line_buffering=True)  # each run's line as it ends, also into a file
     if args.stages_of:
-        stages(int(args.stages_of[0]), args.stages_of[1], args.stages_of[2:])
+        if args.stages_of[0] == "ray":
+            stages_in_ray(args.stages_of[1], args.stages_of[2:])
+        else:
+            stages(int(args.stages_of[0]), args.stages_of[1], args.stages_of[2:])
         return 0
     assets = Path(args.assets)
     model = args.model or os.environ.get("FACEPUPPET_FACE_LANDMARKER") or str(assets / "models" /
@@ -424,14 +515,15 @@ def main(argv=None) -> int:
 
 
 def bench(args, assets: Path, model: str, tmp: Path) -> int:
-    """The runs of :func:`main` in the folder ``tmp``; prints the table and the bars."""
-    t0 = time.perf_counter()
+    """The runs of :func:`main` in the folder ``tmp``: the single runs, then the rounds; prints each run, each
+    round's ratios and their medians."""
+    t_start = time.perf_counter()
     if args.rig:
         profile, rig = None, Path(args.rig)
     else:
         profile, rig = make_rig(assets, assets / "video" / f"{CLIPS[0]}.mp4", model, tmp,
                                 trained=args.profile == "trained")
-    print(f"setup (rig from {CLIPS[0]}, profile {args.profile}): {time.perf_counter() - t0:.0f} s")
+    print(f"setup (rig from {CLIPS[0]}, profile {args.profile}): {time.perf_counter() - t_start:.0f} s")
 
     clips_dir = tmp / "clips"
     clips_dir.mkdir()
@@ -444,109 +536,156 @@ def bench(args, assets: Path, model: str, tmp: Path) -> int:
     frames = sum(frame_count(c) for c in clips)
     common = ["--rig", str(rig), *(["--profile", str(profile)] if profile else []), "--model", model,
               "--no-progress"]
-
+    ray = not args.no_ray and importlib.util.find_spec("ray") is not None
     if args.stages:
-        for threads in sorted({1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1}):
-            subprocess.run([sys.executable, __file__, "--stages-of", str(threads), str(rig), *map(str, clips)],
-                           env=ENV, check=True)
+        stage_runs(rig, clips, ray)
+
+    if args.repeat < 1:                         # nothing to compare the single runs with
+        return 0
     single_dir = tmp / "single"
     single_dir.mkdir()
-    load = {"sum of single animate runs": os.getloadavg()[0]}
+    t0, load0 = time.perf_counter(), os.getloadavg()[0]
     singles = [facepuppet("animate", str(c), "-o", str(single_dir / f"{c.stem}.glb"),
                           "--csv", str(single_dir / f"{c.stem}.csv"), *common) for c in clips]
     t_single, cpu_single = sum(t for t, _ in singles), sum(c for _, c in singles)
-    runs = [("batch --workers 1", ["--workers", "1"], None), ("batch --workers 2", ["--workers", "2"], None)]
-    ray = not args.no_ray and importlib.util.find_spec("ray") is not None
+    print(f"sum of {len(clips)} single animate runs: {t_single:.1f} s, {frames / t_single:.0f} frames/s, "
+          f"{cpu_single:.1f} CPU s (load {load0:.2f} -> {os.getloadavg()[0]:.2f}; "
+          f"{time.perf_counter() - t0:.0f} s)")
+
+    configs = [(ONE_WORKER, ["--workers", "1"], "local"), (TWO_WORKERS, ["--workers", "2"], "local")]
     if ray:
-        runs.append((RAY_COLD, ["--engine", "ray", "--workers", "2"], None))
-        runs.append((RAY_CLUSTER, ["--engine", "ray"], "cluster"))
+        for nice in args.cluster_niceness:
+            configs.append((RAY_CLUSTER if nice == RAY_NICENESS else f"{RAY_CLUSTER}, workers nice {nice}",
+                            ["--engine", "ray"], ("cluster", nice)))
+        if not args.no_cold:
+            configs.append((RAY_COLD, ["--engine", "ray", "--workers", "2"], "own"))
     if not args.no_one_core and hasattr(os, "sched_setaffinity"):
-        runs.append((ONE_CORE, ["--workers", "1"], {min(os.sched_getaffinity(0))}))
-    times, cpus = {}, {}
+        configs.append((ONE_CORE, ["--workers", "1"], {min(os.sched_getaffinity(0))}))
     cluster = None
+    rounds: list[dict[str, Run]] = []
     try:
-        for label, extra, where in runs:
-            if where == "cluster":
-                t0 = time.perf_counter()
-                cluster = Cluster(2, ENV)
-                started = time.perf_counter() - t0
-                print(f"Ray cluster at {cluster.address}: started in {started:.1f} s, a first driver connected and "
-                      f"left in {cluster.first_driver():.1f} s (neither timed)")
-                time.sleep(1.0)
-                extra = [*extra, "--address", cluster.address]
-            out = tmp / "".join(ch if ch.isalnum() else "_" for ch in label)
-            load[label] = os.getloadavg()[0]
-            times[label], cpus[label] = facepuppet("batch", *map(str, clips), "-o", str(out), "--csv", *common,
-                                                   *extra, cpus=where if isinstance(where, set) else None,
-                                                   cluster=cluster if where == "cluster" else None,
-                                                   ray="ray" in extra, timeline="ray" in extra)
-            if where == "cluster":
-                cluster.stop()
-                cluster = None
-            for c in clips:
-                for ext in ("glb", "csv"):
-                    if (out / f"{c.stem}.{ext}").read_bytes() != (single_dir / f"{c.stem}.{ext}").read_bytes():
-                        raise SystemExit(f"{label}: {c.stem}.{ext} differs from animate's")
-        pairs = []
-        if ray and "batch --workers 2" in times and RAY_CLUSTER in times:
-            pairs.append((times["batch --workers 2"], times[RAY_CLUSTER]))
-        for k in range(1, args.repeat if ray else 0):   # more pairs, alternately: local 2 workers, then Ray
-            out = tmp / f"repeat{k}"
-            t_local, _ = facepuppet("batch", *map(str, clips), "-o", str(out / "local"), "--csv", *common,
-                                    "--workers", "2")
-            cluster = Cluster(2, ENV)
-            cluster.first_driver()
-            time.sleep(1.0)
-            t_ray, _ = facepuppet("batch", *map(str, clips), "-o", str(out / "ray"), "--csv", *common,
-                                  "--engine", "ray", "--address", cluster.address, cluster=cluster, ray=True,
-                                  timeline=True)
-            cluster.stop()
-            cluster = None
-            pairs.append((t_local, t_ray))
+        for k in range(args.repeat):
+            shift = k % len(configs)
+            order = configs[shift:] + configs[:shift]
+            print(f"\nround {k + 1} of {args.repeat}: {', '.join(label for label, _, _ in order)}")
+            done: dict[str, Run] = {}
+            for label, extra, where in order:
+                out = tmp / f"round{k + 1}" / "".join(ch if ch.isalnum() else "_" for ch in label)
+                on_cluster = isinstance(where, tuple)
+                if on_cluster:                  # a new cluster for its run alone: no idle cluster beside the others
+                    t0 = time.perf_counter()
+                    cluster = Cluster(2, {**ENV, "RAY_worker_niceness": str(where[1])})
+                    started = time.perf_counter() - t0
+                    print(f"  (Ray cluster at {cluster.address}: started in {started:.1f} s, a first driver "
+                          f"connected and left in {cluster.first_driver():.1f} s; neither timed)")
+                    time.sleep(1.0)
+                    extra = [*extra, "--address", cluster.address]
+                load = os.getloadavg()[0]
+                dt, cpu = facepuppet("batch", *map(str, clips), "-o", str(out), "--csv", *common, *extra,
+                                     cpus=where if isinstance(where, set) else None,
+                                     cluster=cluster, ray=on_cluster or where == "own",
+                                     timeline=on_cluster or where == "own")
+                if cluster is not None:
+                    cluster.stop()
+                    cluster = None
+                same_bytes(label, out, single_dir, clips)
+                shutil.rmtree(out, ignore_errors=True)
+                done[label] = Run(dt, cpu, load)
+                print(f"  {label:<50}{dt:>7.1f} s{frames / dt:>6.0f} frames/s{cpu:>7.1f} CPU s"
+                      f"{1000 * cpu / frames:>6.1f} CPU ms/frame{cpu / dt:>6.2f} cores  load {load:.2f}", flush=True)
+            rounds.append(done)
+            print("  round " + str(k + 1) + ": " + "; ".join(f"{name} {value}" for name, value, _ in
+                                                               ratios(done, t_single)), flush=True)
     finally:
         if cluster is not None:
             cluster.stop()
-    if len(pairs) > 1:
-        print(f"\npairs run alternately (local 2 workers, then Ray on a new existing cluster: connect + actors + "
-              f"work + disconnect; load {os.getloadavg()[0]:.2f}):")
-        over = []
-        for k, (t_local, t_ray) in enumerate(pairs):
-            over.append(100 * (t_ray - t_local) / t_local)
-            print(f"  pair {k + 1}: local {t_local:.1f} s, Ray {t_ray:.1f} s, overhead {over[-1]:+.1f} %")
-        print(f"Ray's overhead, median of {len(over)} pairs: {statistics.median(over):+.1f} % "
-              f"(spread {min(over):+.1f} to {max(over):+.1f} %; bar <= 15 %)")
-
-    print(f"\n{args.copies} clips, {frames} frames (colour tracker, GLB + CSV); each line one process "
-          f"(the single runs: one each)")
-    print(f"{'run':<38}{'seconds':>9}{'frames/s':>10}{'CPU s':>8}{'CPU ms/frame':>14}{'cores':>7}"
-          f"{'vs 1 worker':>13}{'vs single':>11}{'load':>7}")
-    one = times["batch --workers 1"]
-    rows = [("sum of single animate runs", t_single, cpu_single), *((k, times[k], cpus[k]) for k in times)]
-    for label, dt, cpu in rows:
-        cpu_text = f"{cpu:>8.1f}{1000 * cpu / frames:>14.1f}{cpu / dt:>7.2f}"
-        print(f"{label:<38}{dt:>9.1f}{frames / dt:>10.0f}{cpu_text}{one / dt:>12.2f}x{t_single / dt:>10.2f}x"
-              f"{load[label]:>7.2f}")
-    print("CPU s: user + system of the run's processes (Ray: every process of its own runtime, or of the existing "
-          f"cluster over the run, looked at every {SAMPLE_S} s); cores: CPU s / seconds; load: the 1-minute load "
-          "average as the run started")
-    print("outputs of every batch: byte for byte those of the single animate runs")
-    two = times["batch --workers 2"]
-    print(f"bar: 2 workers >= 1.7x 1 worker: {one / two:.2f}x")
-    if RAY_CLUSTER in times:
-        print(f"bar: Ray's overhead <= 15 % of the local engine's time (2 workers), per batch on an existing "
-              f"cluster: {100 * (times[RAY_CLUSTER] - two) / two:+.1f} %")
-    if RAY_COLD in times:
-        print(f"     and with the batch's own Ray runtime (cold: Ray's start and shutdown included): "
-              f"{100 * (times[RAY_COLD] - two) / two:+.1f} %")
-    if ONE_CORE in times:
-        print(f"scaling: 2 workers on 2 cores vs 1 worker on 1 core: {times[ONE_CORE] / two:.2f}x; the unpinned "
-              f"1 worker kept {cpus['batch --workers 1'] / one:.2f} cores busy (2 workers can be at most "
-              f"{2 * one / cpus['batch --workers 1']:.2f}x as fast as it)")
+    summary(rounds, ratios, t_single, cpu_single, frames, args)
     print(f"the machine: 2 processes of a CPU-bound loop go {machine_scaling():.2f}x as fast as 1 (the ceiling "
           f"of any 2-worker speed-up here)")
+    if autogroup():
+        print("Linux shares the CPU between sessions here (autogroup): each run is a session of its own, its "
+              "workers sharing its share, and a Ray cluster's actors are in the cluster's session, beside the "
+              "driver's: while other sessions work, the configurations' wall times do not compare (their CPU "
+              "seconds do); the bars need a quiet machine")
     print(f"load: {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f} {os.getloadavg()[2]:.2f} "
-          f"(1, 5, 15 min) on {os.cpu_count()} cores")
+          f"(1, 5, 15 min) on {os.cpu_count()} cores; the whole benchmark {time.perf_counter() - t_start:.0f} s")
     return 0
+
+
+@dataclasses.dataclass(frozen=True)
+class Run:
+    """One timed run: wall seconds, CPU seconds, the 1-minute load average as it started."""
+
+    seconds: float
+    cpu: float
+    load: float
+
+
+def same_bytes(label: str, out: Path, single_dir: Path, clips: list[Path]) -> None:
+    """Stop the benchmark unless every output of the batch in ``out`` has the single ``animate`` run's bytes."""
+    for c in clips:
+        for ext in ("glb", "csv"):
+            if (out / f"{c.stem}.{ext}").read_bytes() != (single_dir / f"{c.stem}.{ext}").read_bytes():
+                raise SystemExit(f"{label}: {c.stem}.{ext} differs from animate's")
+
+
+def ratios(done: dict[str, Run], t_single: float) -> list[tuple[str, str, float]]:
+    """A round's ratios: (name, text, value) for the 2-worker speed-up over 1 worker, Ray's overheads over the
+    local engine with 2 workers (on the existing cluster: the bar's; with its own runtime), the pinned worker's
+    time over the unpinned one's, and 1 worker against the single runs (measured once, before the rounds); beside
+    the time ratios, the CPU ones (``CPU``: the extra CPU seconds an engine spends, which other work on the machine
+    hardly changes)."""
+    out = []
+    one, two = done[ONE_WORKER].seconds, done[TWO_WORKERS].seconds
+    out.append(("2 workers / 1 worker", f"{one / two:.2f}x", one / two))
+    cpu_two = done[TWO_WORKERS].cpu
+    extra = 100 * (cpu_two - done[ONE_WORKER].cpu) / done[ONE_WORKER].cpu
+    out.append(("CPU: 2 workers over 1 worker", f"{extra:+.1f} %", extra))
+    for label in done:
+        if label.startswith("Ray"):
+            over = 100 * (done[label].seconds - two) / two
+            out.append((f"{label}: overhead", f"{over:+.1f} %", over))
+            extra = 100 * (done[label].cpu - cpu_two) / cpu_two
+            out.append((f"CPU: {label} over 2 workers", f"{extra:+.1f} %", extra))
+    if ONE_CORE in done:
+        out.append(("1 worker pinned / unpinned", f"{done[ONE_CORE].seconds / one:.2f}x",
+                    done[ONE_CORE].seconds / one))
+    out.append(("1 worker / sum of single runs", f"{t_single / one:.2f}x", t_single / one))
+    return out
+
+
+def summary(rounds: list[dict[str, Run]], ratios_of, t_single: float, cpu_single: float, frames: int, args) -> None:
+    """Each ratio's median over the rounds with its spread, and the runs' medians (the bars' figures)."""
+    if not rounds:
+        return
+    print(f"\n{args.copies} clips, {frames} frames (colour tracker, GLB + CSV), {len(rounds)} round(s), the "
+          f"configurations interleaved (their order rotated each round); each run one process, start-up included")
+    w = max(38, *(len(label) + 1 for label in rounds[0]))
+    print(f"{'median over the rounds':<{w}}{'seconds':>9}{'frames/s':>10}{'CPU s':>8}{'CPU ms/frame':>14}"
+          f"{'cores':>7}{'load':>13}")
+    print(f"{'sum of single animate runs (once)':<{w}}{t_single:>9.1f}{frames / t_single:>10.0f}{cpu_single:>8.1f}"
+          f"{1000 * cpu_single / frames:>14.1f}{cpu_single / t_single:>7.2f}")
+    for label in rounds[0]:
+        runs = [r[label] for r in rounds if label in r]
+        dt, cpu = statistics.median(r.seconds for r in runs), statistics.median(r.cpu for r in runs)
+        loads = [r.load for r in runs]
+        print(f"{label:<{w}}{dt:>9.1f}{frames / dt:>10.0f}{cpu:>8.1f}{1000 * cpu / frames:>14.1f}{cpu / dt:>7.2f}"
+              f"{min(loads):>7.2f}-{max(loads):.2f}")
+    print("CPU s: user + system of the run's processes (Ray: every process of its own runtime, or of the existing "
+          f"cluster over the run, looked at every {SAMPLE_S} s); cores: CPU s / seconds; load: the 1-minute load "
+          "average as the runs started")
+    print("outputs of every batch: byte for byte those of the single animate runs")
+    per = {}
+    for r in rounds:
+        for name, _, value in ratios_of(r, t_single):
+            per.setdefault(name, []).append(value)
+    bars = {"2 workers / 1 worker": "bar >= 1.7x", f"{RAY_CLUSTER}: overhead": "bar <= 15 %"}
+    width = max(map(len, per)) + 1
+    for name, values in per.items():
+        unit = (lambda v: f"{v:+.1f} %") if "over" in name else (lambda v: f"{v:.2f}x")
+        print(f"{name:<{width}} median {unit(statistics.median(values)):>9} (spread {unit(min(values))} to "
+              f"{unit(max(values))}; rounds {', '.join(unit(v) for v in values)})"
+              + (f"  {bars[name]}" if name in bars else ""))
 
 
 if __name__ == "__main__":

@@ -1,10 +1,11 @@
 """The Ray engine's driver against a stand-in for Ray (no Ray needed): actors that run their calls in order, as
 Ray's do. Each clip gets exactly one result; an actor never holds more than two clips; the last clips go to the
 actor that is free; an actor that dies under a clip gives that clip a failed row, and the clip queued behind it
-runs on another actor, once."""
+runs on another actor, once. A runtime the engine starts itself runs its workers at niceness 0."""
 
 from __future__ import annotations
 
+import os
 import sys
 import types
 
@@ -137,3 +138,37 @@ def test_an_actor_dying_fails_its_clip_and_its_queued_clip_runs_elsewhere(monkey
     assert sorted(i for i, _ in ray.ran) == [1, 2, 3, 4, 5]     # clip 2, queued on the dead actor, ran once
     assert len(ray.actors) == 3                                 # the dead one replaced
     assert ray.most_queued <= 2
+
+
+class FakeRayToStart(FakeRay):
+    """A Ray not started yet: ``init`` notes the address asked for and the workers' niceness it would read."""
+
+    def __init__(self, cpus: int):
+        super().__init__(cpus, {})
+        self.started, self.inits = False, []
+
+    def is_initialized(self):
+        return self.started
+
+    def init(self, address=None, **_options):
+        self.inits.append((address, os.environ.get("RAY_worker_niceness")))
+        self.started = True
+
+
+@pytest.mark.parametrize("address, user, seen", [(None, None, "0"), (None, "7", "7"), ("10.0.0.1:6379", None, None)],
+                         ids=["own runtime", "own runtime, user's niceness", "a cluster"])
+def test_an_own_runtime_starts_its_workers_at_niceness_0(monkeypatch, address, user, seen):
+    ray = FakeRayToStart(2)
+    monkeypatch.setitem(sys.modules, "ray", ray)
+    monkeypatch.setattr(ray_engine, "rig_arrays", lambda path: "arrays")
+    if user is None:
+        monkeypatch.delenv("RAY_worker_niceness", raising=False)
+    else:
+        monkeypatch.setenv("RAY_worker_niceness", user)
+    tasks = [ClipTask(index=0, clip="c0.mp4", rig="rig.npz", rig_sha256="r", outputs={}, config=AnimateConfig())]
+    results = []
+    ray_engine.run_ray(tasks, workers=2, address=address, on_progress=lambda *_: None, on_result=results.append)
+    assert [r.ok for r in results] == [True]
+    assert ray.inits == [("local" if address is None else address, seen)]
+    assert os.environ.get("RAY_worker_niceness") == user         # the process's environment as it was
+    assert ray_engine.RAY_WORKER_NICENESS == 0

@@ -17,6 +17,7 @@ that clip a failed row and is replaced.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 import queue as queue_module
@@ -25,7 +26,6 @@ import time
 
 from facepuppet.batch.timeline import Timeline, process_start_time
 from facepuppet.batch.worker import (
-    PROGRESS_EVERY_S,
     ClipResult,
     ClipTask,
     cached_rig,
@@ -38,8 +38,8 @@ from facepuppet.batch.worker import (
 )
 from facepuppet.errors import FacepuppetError
 
-__all__ = ["run_ray", "ClipWorker", "RAY_MISSING", "RAY_TASK_CPUS", "RAY_INIT", "POLL_S", "STEPS_WAIT_S",
-           "QUEUED_PER_ACTOR"]
+__all__ = ["run_ray", "ClipWorker", "RAY_MISSING", "RAY_TASK_CPUS", "RAY_INIT", "RAY_WORKER_NICENESS", "POLL_S",
+           "STEPS_WAIT_S", "QUEUED_PER_ACTOR"]
 
 log = logging.getLogger(__name__)
 
@@ -63,6 +63,12 @@ RAY_MISSING = '--engine ray needs Ray: pip install "facepuppet[ray]"'
 #: warnings up (the workers' log lines still reach the driver's stderr).
 RAY_INIT = {"include_dashboard": False, "logging_level": logging.WARNING}
 
+#: Niceness of the worker processes of the local runtime the batch starts (Ray's variable ``RAY_worker_niceness``,
+#: read by the runtime as it starts; left as it is when set). Ray's own default, 15, puts its workers behind every
+#: other process of the machine; the batch's own runtime is this machine's foreground work, as the local engine's
+#: worker processes (niceness 0) are. A cluster's nodes keep the niceness their ``ray start`` gave them.
+RAY_WORKER_NICENESS = 0
+
 
 class ClipWorker:
     """What one Ray actor of a batch does (made remote by :func:`run_ray`; plain Python here).
@@ -77,7 +83,7 @@ class ClipWorker:
     """
 
     def __init__(self, threads: int = RAY_TASK_CPUS, warm=None) -> None:
-        self.steps = [("process", process_start_time()), ("init", time.time())]
+        self.steps = [(f"process (nice {os.nice(0)})", process_start_time()), ("init", time.time())]
         self.clips = 0
         share_cores(threads)
         self.warming = None
@@ -103,8 +109,9 @@ class ClipWorker:
 
         ``rig_box`` holds the object reference of the rig file's arrays (in a list, so that Ray hands it over
         unresolved and it is fetched only by an actor that has not kept the rig yet), or the arrays or the rig
-        itself. The first clip waits for
-        the warm-up after fetching its rig.
+        itself. The first clip waits for the warm-up after fetching its rig. The clip runs on a thread of its
+        own, which sends its frame counts and last an end mark through a queue: the generator returns as soon
+        as the clip has.
         """
         self.clips += 1
         if self.clips == 1:
@@ -124,21 +131,14 @@ class ClipWorker:
                 done.append(run_clip(task, _CountQueue(counts), rig))
             except BaseException as e:      # noqa: BLE001 - handed to the generator, which raises it
                 failure.append(e)
+            finally:
+                counts.put(None)            # the end: the generator stops waiting at once
 
         worker = threading.Thread(target=clip, name=f"facepuppet-clip-{task.index}", daemon=True)
         worker.start()
-        while worker.is_alive():
-            try:
-                frames = counts.get(timeout=PROGRESS_EVERY_S)
-            except queue_module.Empty:
-                continue
+        while (frames := counts.get()) is not None:
             yield frames
         worker.join()
-        left = 0
-        while not counts.empty():
-            left += counts.get_nowait()
-        if left:
-            yield left
         if failure:
             raise failure[0]
         yield done[0]
@@ -161,6 +161,21 @@ def _resolve(ref):
     except ImportError:
         return ref
     return ray.get(ref) if isinstance(ref, ray.ObjectRef) else ref
+
+
+@contextlib.contextmanager
+def _worker_niceness():
+    """``RAY_worker_niceness`` set to :data:`RAY_WORKER_NICENESS` in this process's environment (unless set) while
+    the runtime it starts reads it."""
+    name = "RAY_worker_niceness"
+    if name in os.environ:
+        yield
+        return
+    os.environ[name] = str(RAY_WORKER_NICENESS)
+    try:
+        yield
+    finally:
+        os.environ.pop(name, None)
 
 
 def _slots(ray, workers: int | None, tasks: int) -> int:
@@ -193,7 +208,8 @@ def run_ray(tasks: list[ClipTask], *, workers: int | None, address: str | None, 
             ray.init(address=address, logging_level=RAY_INIT["logging_level"])
             timeline.mark(f"connected to the cluster at {address}")
         else:
-            ray.init(address="local", num_cpus=max(1, int(workers or os.cpu_count() or 1)), **RAY_INIT)
+            with _worker_niceness():
+                ray.init(address="local", num_cpus=max(1, int(workers or os.cpu_count() or 1)), **RAY_INIT)
             timeline.mark("own Ray runtime started")
         started = True
     actors: list = []

@@ -23,7 +23,6 @@ from __future__ import annotations
 import re
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 __all__ = ["motion_regions", "region_name", "masks_from_influence", "point_weights", "region_support",
            "region_shares"]
@@ -79,6 +78,8 @@ def motion_regions(base: np.ndarray, deltas: np.ndarray, names: tuple[str, ...] 
     region_names : tuple of R str
         ``"background"`` first.
     """
+    from scipy.spatial import cKDTree  # here, not at import: loading a fitted rig needs no scipy.spatial
+
     motion = np.linalg.norm(deltas, axis=2)                                  # (M, V)
     uncovered = motion.copy()
     stop = min_motion * motion.max()
