@@ -48,9 +48,9 @@ TEETH_LEVEL = 0.8          # fraction      pixels brighter than this times the s
 TEETH_SATURATION = 0.75    # fraction      teeth are less saturated than this times the skin's saturation
 TEETH_GAP = 0.1            # face units    farthest beyond the blob such a run may start (the blob's blurred edge)
 TEETH_MAX = 0.45           # face units    tallest run of teeth the opening takes in above or below the blob
+TEETH_SPLIT = 0.08         # face units    longest break inside a run of teeth (the line between two rows of teeth)
 CORNER_SEARCH = 0.15       # face units    farthest inside the blob's end a column crossing the lips' line is looked for
 CORNER_DEPTH = 0.08        # fraction      of the skin's V the line is darker than the lip above and below it
-TEETH_SPLIT = 0.08         # face units    longest break inside a run of teeth (the line between two rows of teeth)
 
 
 @nb.njit(**INNER)
@@ -400,10 +400,9 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, rgb: np.ndarray, layout: np
                  MOUTH_FOLLOW * unit)
     xl = min(max(xs[0] + x0, lx_l + dx - b), lx_l + dx + b)
     xr = min(max(xs[-1] + 1 + x0, lx_r + dx - b), lx_r + dx + b)
-    # The corners lie where the lips meet: the darkest row of the blob's end columns (the corner's shadow).
-    # A column whose darkest pixel has brighter lip both above and below it crosses the line where the lips meet;
-    # the blob's last columns may be only the lower lip's rim or the shade beyond it (a slope, no line): the
-    # corners lie on the line in the outermost columns that cross it.
+    # The corners lie where the lips meet: a column whose darkest pixel has brighter lip both above and below it
+    # crosses that line (the corner's shadow); the blob's last columns may be only the lower lip's rim or the
+    # shade beyond it (a slope, no line): the corners lie on the line in the outermost columns that cross it.
     vsub = value[y0:y1, x0:x1]
     reach_cols = int(CORNER_SEARCH * unit + 0.5)
     depth = CORNER_DEPTH * skin
