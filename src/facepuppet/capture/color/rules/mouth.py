@@ -49,6 +49,8 @@ TEETH_SATURATION = 0.75    # fraction      teeth are less saturated than this ti
 TEETH_GAP = 0.1            # face units    farthest beyond the blob such a run may start (the blob's blurred edge)
 TEETH_MAX = 0.45           # face units    tallest run of teeth the opening takes in above or below the blob
 TEETH_SPLIT = 0.08         # face units    longest break inside a run of teeth (the line between two rows of teeth)
+CORNER_SEARCH = 0.15       # face units    farthest inside the blob's end a column crossing the lips' line is looked for
+CORNER_DEPTH = 0.08        # fraction      of the skin's V the line is darker than the lip above and below it
 
 
 @nb.njit(**INNER)
@@ -284,6 +286,43 @@ def _darkest_row(value: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: n
 
 
 @nb.njit(**INNER)
+def _corner_row(value: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.ndarray, end: int, step: int,
+                reach: int, depth: float) -> float:
+    """y (rectangle pixels) of the line where the lips meet next to one end of the blob: the mean centre of the
+    darkest pixel of the first 3 columns from ``end`` going ``step`` (1 from the left end, -1 from the right),
+    within ``reach`` columns, whose darkest pixel is ``depth`` darker (V) than the brightest pixel of the column
+    both above and below it; without such columns, of the 3 end columns' darkest pixels (:func:`_darkest_row`)."""
+    total = 0.0
+    n = 0
+    x = end
+    for _ in range(reach + 1):
+        if n == 3 or not 0 <= x < len(cols):
+            break
+        if cols[x] and bottom[x] - top[x] >= 3:
+            a, b = int(top[x]), min(int(bottom[x]), value.shape[0])
+            arg = a
+            for y in range(a, b):
+                if value[y, x] < value[arg, x]:
+                    arg = y
+            above = 0.0
+            below = 0.0
+            for y in range(a, arg):
+                above = max(above, float(value[y, x]))
+            for y in range(arg + 1, b):
+                below = max(below, float(value[y, x]))
+            low = float(value[arg, x])
+            if above - low >= depth and below - low >= depth:
+                total += arg + 0.5
+                n += 1
+        x += step
+    if n:
+        return total / n
+    if step > 0:
+        return _darkest_row(value, cols, top, bottom, end, end + 3)
+    return _darkest_row(value, cols, top, bottom, max(end - 2, 0), end + 1)
+
+
+@nb.njit(**INNER)
 def _mid_y(ctrl: np.ndarray) -> float:
     """y of a curve's middle, B(1/2)."""
     return 0.125 * (ctrl[0, 1] + ctrl[3, 1]) + 0.375 * (ctrl[1, 1] + ctrl[2, 1])
@@ -361,11 +400,16 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, rgb: np.ndarray, layout: np
                  MOUTH_FOLLOW * unit)
     xl = min(max(xs[0] + x0, lx_l + dx - b), lx_l + dx + b)
     xr = min(max(xs[-1] + 1 + x0, lx_r + dx - b), lx_r + dx + b)
-    # The corners lie where the lips meet: the darkest row of the blob's end columns (the corner's shadow).
+    # The corners lie where the lips meet: a column whose darkest pixel has brighter lip both above and below it
+    # crosses that line (the corner's shadow); the blob's last columns may be only the lower lip's rim or the
+    # shade beyond it (a slope, no line): the corners lie on the line in the outermost columns that cross it.
     vsub = value[y0:y1, x0:x1]
-    yl = min(max(_darkest_row(vsub, cols, top, bottom, xs[0], xs[0] + 3) + y0, ly_l + dy - b), ly_l + dy + b)
-    yr = min(max(_darkest_row(vsub, cols, top, bottom, max(xs[-1] - 2, 0), xs[-1] + 1) + y0, ly_r + dy - b),
-             ly_r + dy + b)
+    reach_cols = int(CORNER_SEARCH * unit + 0.5)
+    depth = CORNER_DEPTH * skin
+    yl = _corner_row(vsub, cols, top, bottom, xs[0], 1, reach_cols, depth)
+    yr = _corner_row(vsub, cols, top, bottom, xs[-1], -1, reach_cols, depth)
+    yl = min(max(yl + y0, ly_l + dy - b), ly_l + dy + b)
+    yr = min(max(yr + y0, ly_r + dy - b), ly_r + dy + b)
     for c in _LIPS:
         l0, l1 = lay[c, 0, 0], lay[c, 3, 0]
         # Each curve keeps its end offsets from the outer corners (inner lip ends lie inside the mouth).
