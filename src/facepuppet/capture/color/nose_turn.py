@@ -33,19 +33,25 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 __all__ = ["NOSE_REGION", "SAMPLES_PER_UNIT", "DETAIL_SIGMA", "MIRROR_HALF", "SEARCH", "NOSE_DEPTH",
-           "NEUTRAL_FRAMES", "MIN_MATCH", "nose_axis", "face_to_image", "NoseTurn"]
+           "NEUTRAL_FRAMES", "MIN_MATCH", "LOOK_SHARE", "nose_axis", "face_to_image", "NoseTurn"]
 
 # Constants                      unit                what it is
-NOSE_REGION = (-0.6, 0.2, 0.6, 0.85)   # face units  (x0, y0, x1, y1): the nose from below the eyes to its base
+NOSE_REGION = (-0.6, 0.35, 0.6, 0.88)  # face units  (x0, y0, x1, y1): the nose from its middle to its base
 SAMPLES_PER_UNIT = 100.0         # samples / unit    grey samples of the region per face unit
 DETAIL_SIGMA = (1.5, 8.0)        # samples           Gaussian blurs: the noise's, and the light's slope's
 MIRROR_HALF = 0.3                # face units        width compared either side of a candidate axis
 SEARCH = 0.2                     # face units        largest distance of the axis from the eyes' midpoint
-#: Face units the nose's axis moves against the eye centres per unit of sin(yaw): about the depth of the
-#: nose's middle in front of the eye centres over their distance, as the axis of the whole nose moves.
-NOSE_DEPTH = 0.7
+#: Face units the nose's axis moves against the eye centres per unit of sin(yaw): the depth of the nose in
+#: front of the eye centres over their distance, at the scale the head pose of the landmark backend (a PnP on
+#: the generic face) gives the same turn.
+NOSE_DEPTH = 0.9
 NEUTRAL_FRAMES = 300             # frames            the running median of the neutral axis (10 s at 30 /s)
 MIN_MATCH = 0.2                  # correlation       least mirror match of the best axis for a reading
+#: Share (yaw, pitch) of the direction of the line of sight through the head (:func:`~.head_turn.ray_angles`)
+#: added to the yaw measured against it (:func:`~.head_turn.turn_angles`): the trained model's middle share
+#: for the yaw (how much a head's place goes with its turn depends on how the performer moves); none for the
+#: pitch, which is not measured.
+LOOK_SHARE = (0.5, 0.0)
 
 
 def face_to_image(A: np.ndarray, S_px: np.ndarray, px: float, origin: tuple[float, float]) -> np.ndarray:

@@ -35,11 +35,11 @@ from facepuppet.capture.color.face import (
 )
 from facepuppet.capture.color.follow import OWN_CHECKS, Follower, FollowState
 from facepuppet.capture.color.glare import without_glare
-from facepuppet.capture.color.head_turn import apply_turn_model, turn_angles, turn_rotation
+from facepuppet.capture.color.head_turn import RAY_SHARE, apply_turn_model, turn_angles, turn_rotation
 from facepuppet.capture.color.jobs import wait_pending
 from facepuppet.capture.color.likeness import FaceTemplate
 from facepuppet.capture.color.measure import Measurement, Placement
-from facepuppet.capture.color.nose_turn import NoseTurn, face_to_image
+from facepuppet.capture.color.nose_turn import LOOK_SHARE, NoseTurn, face_to_image
 from facepuppet.capture.color.outliner import Outliner
 from facepuppet.capture.color.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
 from facepuppet.capture.color.refind import LostFace
@@ -399,7 +399,7 @@ class ColorTracker:
         if pose and turn is not None:
             # the model's turn and the share of the head's place that goes with it (:func:`.head_turn.turn_angles`)
             inner = 0.5 * (curves[_IDX["eye_right_upper"], 0] + curves[_IDX["eye_left_upper"], 0])
-            yaw, pitch = turn_angles(turn, inner, pose.camera_matrix) if self.profile.head else turn.tolist()
+            yaw, pitch = turn_angles(turn, inner, pose.camera_matrix, RAY_SHARE if self.profile.head else LOOK_SHARE)
             pose = HeadPose(FRONTAL_ROTATION @ turn_rotation(yaw, pitch, float(pose.angles()[2])),
                             pose.translation, pose.camera_matrix, pose.reprojection_error)
         if pose:
