@@ -7,7 +7,8 @@ is first aligned on the acquisition's, :mod:`.follow`); Eq. 1 and the contrast C
 (:mod:`.rules`), the lips refined as snakes (Eqs. 2-4, :mod:`.snakes`) against the head's up-vector
 (:mod:`.outliner`); the eye blobs re-align the face frame for the next frame; the curves are smoothed
 (:mod:`.smoothing`) and the head pose comes from the stable curve ends (roll and position) and, with a trained
-profile, the look of the crop (yaw and pitch, :mod:`.head_turn`).
+profile, the look of the crop (yaw and pitch, :mod:`.head_turn`), with the built-in one the nose's axis against
+the eyes (yaw, :mod:`.nose_turn`).
 
 Conventions: RGB uint8 frames; curves in image pixels (x right, y down); left and right are the performer's.
 """
@@ -390,7 +391,7 @@ class ColorTracker:
     def _features(self, curves: np.ndarray, size: tuple[int, int], turn: np.ndarray | None = None) -> FrameFeatures:
         # The stable landmarks are the layout's, placed by the face frame (a similarity): they show the head's
         # roll, size and place but not a turn, so the pose is solved upright (estimate_pose, out_of_plane); the
-        # turn (yaw, pitch), where the profile's head-turn model reads it, is composed with that roll.
+        # turn (yaw, pitch) read by the profile's head-turn model or measured on the nose is composed with that roll.
         uv = curves[_POSE_POINTS]
         pose = estimate_pose(uv, size, previous=self._follow.pose, out_of_plane=False)
         if not pose:
