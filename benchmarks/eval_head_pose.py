@@ -4,14 +4,16 @@ For each clip, the MediaPipe backend tracks every frame (its pose: PnP of its la
 the reference). The colour tracker then tracks the clip twice: with the generic profile, and with a profile
 trained on the first half of the clip (every third frame MediaPipe found a face in, at most 150, labelled by
 MediaPipe's curves and head rotations, as ``calibrate --train-profile`` does); the trained one is scored on
-the second half only (held out). Printed per angle: Pearson correlation and mean absolute error in degrees
-over the frames both backends tracked (a constant angle has no correlation: "-"), and the spread of MediaPipe's
-angles over the held-out half (an angle whose spread is under ``TURNS`` degrees does not turn: its
-correlation is on noise). For the trained profile also, per angle: the slope of its angle regressed on
-MediaPipe's (under 1: the turns read smaller than they are) and the jitter of both (the mean absolute change
-from one frame to the next over consecutive held-out frames both tracked, degrees: a head that wobbles).
+the second half only (held out). An angle held at zero (what the tracker gives where it does not measure
+one) is scored beside them: its error is the size of MediaPipe's angle. Printed per angle: Pearson
+correlation and mean absolute error in degrees over the frames both backends tracked (a constant angle has
+no correlation: "-"), and the spread of MediaPipe's angles over the held-out half (an angle whose spread is
+under ``TURNS`` degrees does not turn: its correlation is on noise). For the trained profile also, per
+angle: the slope of its angle regressed on MediaPipe's (under 1: the turns read smaller than they are) and
+the jitter of both (the mean absolute change from one frame to the next over consecutive held-out frames
+both tracked, degrees: a head that wobbles). ``--generic-only`` skips the trained profile.
 
-    python benchmarks/eval_head_pose.py [--frames N] [--model face_landmarker.task] [CLIP ...]
+    python benchmarks/eval_head_pose.py [--frames N] [--model face_landmarker.task] [--generic-only] [CLIP ...]
 """
 
 from __future__ import annotations
@@ -101,6 +103,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("clips", nargs="*", metavar="CLIP", help="videos (default: the three shared clips)")
     ap.add_argument("--frames", type=int, default=10 ** 6, help="most frames per clip (default all)")
     ap.add_argument("--model", help="face_landmarker.task (default $FACEPUPPET_FACE_LANDMARKER or the shared one)")
+    ap.add_argument("--generic-only", action="store_true", help="score the built-in profile only (no training)")
     args = ap.parse_args(argv)
 
     from facepuppet.capture.color.train import train_profile
@@ -126,6 +129,9 @@ def main(argv: list[str] | None = None) -> int:
         print(row("generic, all frames", scores(g_angles, mp_angles, keep), int(keep.sum())))
         held = np.arange(len(frames)) >= half
         print(row("generic, second half", scores(g_angles, mp_angles, keep & held), int((keep & held).sum())))
+        print(row("held at zero, all", scores(np.zeros_like(g_angles), mp_angles, keep), int(keep.sum())))
+        if args.generic_only:
+            continue
         labelled = np.flatnonzero(mp_valid[:half])[::EVERY][:MAX_LABELS]
         profile = train_profile([frames[k] for k in labelled], mp_curves[labelled], name=clip.stem,
                                 rotations=mp_rots[labelled])

@@ -174,12 +174,13 @@ def ray_angles(uv: np.ndarray, K: np.ndarray) -> np.ndarray:
     return np.array([np.arctan((uv[0] - K[0, 2]) / K[0, 0]), np.arctan((uv[1] - K[1, 2]) / K[1, 1])])
 
 
-def turn_angles(turn: np.ndarray, uv: np.ndarray, K: np.ndarray) -> tuple[float, float]:
+def turn_angles(turn: np.ndarray, uv: np.ndarray, K: np.ndarray,
+                share: tuple[float, float] = RAY_SHARE) -> tuple[float, float]:
     """The head's (yaw, pitch) radians (:meth:`~facepuppet.capture.pose.HeadPose.angles`): the model's ``turn``
-    (2,) plus :data:`RAY_SHARE` of :func:`ray_angles` of the inner eye corners' midpoint ``uv`` (2,) pixels
-    (the point the training takes the labels' share at) in the camera ``K`` (3, 3)."""
+    (2,) plus ``share`` (default :data:`RAY_SHARE`) of :func:`ray_angles` of the inner eye corners' midpoint
+    ``uv`` (2,) pixels (the point the training takes the labels' share at) in the camera ``K`` (3, 3)."""
     ray = ray_angles(uv, K)
-    return float(turn[0]) + RAY_SHARE[0] * float(ray[0]), float(turn[1]) + RAY_SHARE[1] * float(ray[1])
+    return float(turn[0]) + share[0] * float(ray[0]), float(turn[1]) + share[1] * float(ray[1])
 
 
 def turn_rotation(yaw: float, pitch: float, roll: float) -> np.ndarray:

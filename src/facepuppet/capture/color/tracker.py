@@ -7,7 +7,8 @@ is first aligned on the acquisition's, :mod:`.follow`); Eq. 1 and the contrast C
 (:mod:`.rules`), the lips refined as snakes (Eqs. 2-4, :mod:`.snakes`) against the head's up-vector
 (:mod:`.outliner`); the eye blobs re-align the face frame for the next frame; the curves are smoothed
 (:mod:`.smoothing`) and the head pose comes from the stable curve ends (roll and position) and, with a trained
-profile, the look of the crop (yaw and pitch, :mod:`.head_turn`).
+profile, the look of the crop (yaw and pitch, :mod:`.head_turn`), with the built-in one the nose's axis against
+the eyes (yaw, :mod:`.nose_turn`).
 
 Conventions: RGB uint8 frames; curves in image pixels (x right, y down); left and right are the performer's.
 """
@@ -35,10 +36,11 @@ from facepuppet.capture.color.face import (
 )
 from facepuppet.capture.color.follow import OWN_CHECKS, Follower, FollowState
 from facepuppet.capture.color.glare import without_glare
-from facepuppet.capture.color.head_turn import apply_turn_model, turn_angles, turn_rotation
+from facepuppet.capture.color.head_turn import RAY_SHARE, apply_turn_model, turn_angles, turn_rotation
 from facepuppet.capture.color.jobs import wait_pending
 from facepuppet.capture.color.likeness import FaceTemplate
 from facepuppet.capture.color.measure import Measurement, Placement
+from facepuppet.capture.color.nose_turn import LOOK_SHARE, NoseTurn, face_to_image
 from facepuppet.capture.color.outliner import Outliner
 from facepuppet.capture.color.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
 from facepuppet.capture.color.refind import LostFace
@@ -162,6 +164,7 @@ class ColorTracker:
             [FAMILIES[f] for f in sorted(self.profile.shapes)] or [np.zeros(0, int)]))
         self._acquirer = Acquirer(self, self._place, self._template, self._eye_window)
         self._turn_filter = OneEuro(TURN_FILTER)
+        self._nose_turn = NoseTurn()
 
     # -- what other modules read -----------------------------------------------------------------------
     @property
@@ -236,7 +239,7 @@ class ColorTracker:
                 self.seen = None
                 return FrameFeatures.lost(len(CURVE_NAMES), len(POINT_NAMES))
         curves = self._smoother(curves, result.frame, timestamp_ms)
-        return self._features(curves, (w, h), self._turn(timestamp_ms))
+        return self._features(curves, (w, h), self._turn(timestamp_ms, rgb))
 
     def reset(self) -> None:
         """Start a new take: every state the tracker keeps from frame to frame is set up again as a new
@@ -364,15 +367,20 @@ class ColorTracker:
                            seen=(crop, A, placed) if outline else None)
 
     # -- internals -------------------------------------------------------------------------------------
-    def _turn(self, timestamp_ms: int) -> np.ndarray | None:
+    def _turn(self, timestamp_ms: int, rgb: np.ndarray) -> np.ndarray | None:
         """The head's (yaw, pitch) in radians read off the last crop by the profile's head-turn model
-        (:mod:`.head_turn`), filtered over time; None without a model."""
-        if not self.profile.head or self.seen is None:
+        (:mod:`.head_turn`), or without one the yaw measured on the frame ``rgb`` (:mod:`.nose_turn`, pitch
+        zero), filtered over time; None before a face is measured."""
+        if self.seen is None:
             return None
-        crop, _, placed = self.seen
+        crop, A, placed = self.seen
         (c0, k0), (c1, k1) = _PLACED_PAIR
         S = similarity_of_pairs(self._layout_px[[c0, c1], [k0, k1]], placed[[c0, c1], [k0, k1]])
-        raw = apply_turn_model(self.profile.head, crop, S, self.config.measure.px)
+        px = self.config.measure.px
+        if self.profile.head:
+            raw = apply_turn_model(self.profile.head, crop, S, px)
+        else:
+            raw = np.array([self._nose_turn(rgb, face_to_image(A, S, px, CROP_EXTENT[:2])), 0.0])
         fol = self._follow
         if fol.turn_ms is None:
             self._turn_filter.restart(raw)
@@ -385,7 +393,7 @@ class ColorTracker:
     def _features(self, curves: np.ndarray, size: tuple[int, int], turn: np.ndarray | None = None) -> FrameFeatures:
         # The stable landmarks are the layout's, placed by the face frame (a similarity): they show the head's
         # roll, size and place but not a turn, so the pose is solved upright (estimate_pose, out_of_plane); the
-        # turn (yaw, pitch), where the profile's head-turn model reads it, is composed with that roll.
+        # turn (yaw, pitch) read by the profile's head-turn model or measured on the nose is composed with that roll.
         uv = curves[_POSE_POINTS]
         pose = estimate_pose(uv, size, previous=self._follow.pose, out_of_plane=False)
         if not pose:
@@ -394,7 +402,7 @@ class ColorTracker:
         if pose and turn is not None:
             # the model's turn and the share of the head's place that goes with it (:func:`.head_turn.turn_angles`)
             inner = 0.5 * (curves[_IDX["eye_right_upper"], 0] + curves[_IDX["eye_left_upper"], 0])
-            yaw, pitch = turn_angles(turn, inner, pose.camera_matrix)
+            yaw, pitch = turn_angles(turn, inner, pose.camera_matrix, RAY_SHARE if self.profile.head else LOOK_SHARE)
             pose = HeadPose(FRONTAL_ROTATION @ turn_rotation(yaw, pitch, float(pose.angles()[2])),
                             pose.translation, pose.camera_matrix, pose.reprojection_error)
         if pose:
