@@ -1,5 +1,6 @@
 """The compiled affine ECC alignment: a known motion recovered, OpenCV's findTransformECC matched step for step
-(also where the warp reaches past the input), the failures it reports; Eq. 1's branch-free hue and saturation against the branching one."""
+(also where the warp reaches past the input), the failures it reports; Eq. 1's branch-free hue and saturation
+against the branching one."""
 
 import cv2
 import numpy as np
