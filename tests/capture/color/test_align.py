@@ -1,5 +1,6 @@
-"""The compiled affine ECC alignment: a known motion recovered, OpenCV's findTransformECC matched step for step,
-the failures it reports; Eq. 1's branch-free hue and saturation against the branching one."""
+"""The compiled affine ECC alignment: a known motion recovered, OpenCV's findTransformECC matched step for step
+(also where the warp reaches past the input), the failures it reports; Eq. 1's branch-free hue and saturation
+against the branching one."""
 
 import cv2
 import numpy as np
@@ -39,6 +40,20 @@ def test_it_follows_opencvs_steps():
         image = _scene(seed=seed)
         guess = np.array([[1.0, 0.02, 0.5], [-0.01, 0.98, -0.3]], np.float32)
         template = _moved(image, np.array([[0.99, 0.0, 1.0], [0.01, 1.01, 0.6]], np.float32))
+        cc, W = cv2.findTransformECC(template, image, guess.copy(), cv2.MOTION_AFFINE, crit, None, 3)
+        ok, rho, M = ecc_affine(blur3(template), image, guess.astype(np.float64), 2, 1e-3)
+        assert ok
+        assert abs(rho - cc) < 1e-5
+        assert np.abs(M - W).max() < 1e-4
+
+
+def test_it_follows_opencvs_steps_where_the_warp_reaches_past_the_input():
+    # Shifts of about 5 pixels: the rows and columns at the edges read the padding (beyond it, clamped into it).
+    crit = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 2, 1e-3)
+    for seed in range(5):
+        image = _scene(seed=seed)
+        guess = np.array([[1.05, 0.03, 4.5], [-0.02, 0.97, -5.0]], np.float32)
+        template = _moved(image, np.array([[1.04, 0.02, 5.0], [-0.01, 0.98, -4.4]], np.float32))
         cc, W = cv2.findTransformECC(template, image, guess.copy(), cv2.MOTION_AFFINE, crit, None, 3)
         ok, rho, M = ecc_affine(blur3(template), image, guess.astype(np.float64), 2, 1e-3)
         assert ok

@@ -1,5 +1,5 @@
-"""The colour tracker's small parts on known answers: the face likeness, the filters' switch, the job registry,
-the grouped configuration."""
+"""The colour tracker's small parts on known answers: the face likeness (Pearson's over its box), the filters'
+switch, the job registry, the grouped configuration."""
 
 import numpy as np
 import pytest
@@ -7,7 +7,7 @@ import pytest
 from facepuppet.capture.color import jobs
 from facepuppet.capture.color.config import ColorTrackerConfig, FilterConfig, MeasureConfig
 from facepuppet.capture.color.face import FaceFrame
-from facepuppet.capture.color.likeness import FaceTemplate
+from facepuppet.capture.color.likeness import FaceTemplate, box_correlation
 from facepuppet.capture.color.profile import GENERIC_LAYOUT
 from facepuppet.capture.color.smoothing import CurveSmoother
 from facepuppet.capture.curves import CURVE_NAMES
@@ -27,6 +27,33 @@ def test_the_template_is_fully_like_itself_and_unlike_its_negative():
     assert t.score(-t.image, same) == pytest.approx(-1.0, abs=1e-6)
     shifted = np.array([[1.0, 0.0, 6.0], [0.0, 1.0, 0.0]])        # the layout placed 6 pixels to the right
     assert t.score(t.image, shifted) < 0.9
+
+
+def test_the_box_correlation_is_pearsons_over_the_box():
+    rng = np.random.default_rng(1)
+    C, T = rng.random((40, 30)).astype(np.float32), rng.random((40, 30)).astype(np.float32)
+    T[5:30, 4:20] += 0.5 * C[5:30, 4:20]
+    want = np.corrcoef(C[5:30, 4:20].ravel(), T[5:30, 4:20].ravel())[0, 1]
+    assert box_correlation(C, T, 4, 5, 20, 30) == pytest.approx(want, abs=1e-7)
+    # A rectangle reaching past the images is clipped to them; an empty one scores 0.
+    assert box_correlation(C, T, -3, -2, 20, 30) == pytest.approx(np.corrcoef(C[:30, :20].ravel(),
+                                                                               T[:30, :20].ravel())[0, 1], abs=1e-7)
+    assert box_correlation(C, T, 10, 10, 10, 20) == 0.0
+    assert box_correlation(C, np.ones_like(T), 4, 5, 20, 30) == 0.0          # a flat image: no correlation
+
+
+def test_the_score_is_the_correlation_with_the_moved_template():
+    import cv2
+
+    t = _template()
+    rng = np.random.default_rng(2)
+    C = cv2.GaussianBlur(rng.random(t.image.shape).astype(np.float32), (0, 0), 2.0)
+    C += cv2.warpAffine(t.image, np.float32([[1, 0, 2], [0, 1, -1]]), t.size)
+    for S in (np.eye(2, 3), np.array([[1.05, -0.04, 1.7], [0.04, 1.05, -2.2]])):
+        T = cv2.warpAffine(t.image, S.astype(np.float32), t.size, flags=cv2.INTER_LINEAR)
+        x0, y0, x1, y1 = t.box
+        want = np.corrcoef(C[y0:y1, x0:x1].ravel(), T[y0:y1, x0:x1].ravel())[0, 1]
+        assert t.score(C, S) == pytest.approx(want, abs=1e-7)
 
 
 def test_a_disabled_smoother_passes_the_curves_through():

@@ -7,7 +7,10 @@ pre-blur of 3 x 3: both images blurred (kernel (1, 2, 1) / 4, borders reflected 
 gradients by central differences, and per step the input and its gradients warped back onto the template's grid
 (bilinear, outside the input: 0; a pixel counts where its nearest input pixel is inside), both zero-meaned over the
 pixels that count, and the Gauss-Newton step of the ECC criterion with its photometric scale λ. The template's blur
-is done once per reference (:func:`blur3`), not per frame.
+is done once per reference (:func:`blur3`), not per frame. Each row of the template's grid is warped in one loop
+without branches (the input and its gradients padded with zeros, the indices clamped into the padding), whose
+sums are then taken in another; the sums are free to be reordered (vectorised), so the warp found may differ from
+a strictly ordered sum's in the last bits.
 
 Conventions: images (h, w) float32 grey; the warp (2, 3) maps template pixels (x, y, 1) to input pixels; its
 parameters are updated in the order (a00, a10, a01, a11, a02, a12). The returned correlation is the criterion at
@@ -21,7 +24,7 @@ import numpy as np
 
 from facepuppet._util.jit import INNER, KERNEL
 
-__all__ = ["blur3", "ecc_affine"]
+__all__ = ["PAD", "blur3", "ecc_affine"]
 
 @nb.njit(**INNER)
 def _reflect(i: int, n: int) -> int:
@@ -51,18 +54,87 @@ def blur3(img: np.ndarray) -> np.ndarray:
     return out
 
 
-@nb.njit(**INNER)
-def _floor(v: float) -> int:
-    """The largest integer <= ``v``."""
-    i = int(v)
-    return i - 1 if v < i else i
+#: Zero pixels around the input and its gradients, so that a warped pixel's four neighbours are read without tests.
+PAD = 2
 
 
 @nb.njit(**INNER)
-def _at(img: np.ndarray, x: int, y: int) -> float:
-    """Pixel (x, y) of ``img``, 0 outside it."""
-    h, w = img.shape
-    return img[y, x] if 0 <= y < h and 0 <= x < w else 0.0
+def _warp_row(img: np.ndarray, gx: np.ndarray, gy: np.ndarray, template: np.ndarray, y: int, m00: float, rx: float,
+              m10: float, ry: float, W: int, H: int, v: np.ndarray, a: np.ndarray, b: np.ndarray, m: np.ndarray,
+              t: np.ndarray) -> None:
+    """Row ``y`` of the template's grid warped onto the input: pixel x sits at (m00 x + rx, m10 x + ry) in the
+    input (W x H). ``img``, ``gx``, ``gy``: the input and its gradients (H + 2 PAD, W + 2 PAD) float32, padded with
+    zeros. Writes per pixel the bilinear input ``v``, gradients ``a``, ``b`` (0 outside the input), whether the
+    pixel counts ``m`` (1.0 where its nearest input pixel is inside, else 0.0) and the template times it ``t``."""
+    lo, hi_x, hi_y = -float(PAD), float(W), float(H)
+    for x in range(len(v)):
+        xx = float(x)
+        X = m00 * xx + rx
+        Y = m10 * xx + ry
+        fX, fY = np.floor(X), np.floor(Y)
+        fx, fy = X - fX, Y - fY
+        w00, w01, w10, w11 = (1.0 - fy) * (1.0 - fx), (1.0 - fy) * fx, fy * (1.0 - fx), fy * fx
+        # Beyond the padding both neighbours of a row or column are padding too.
+        ix = int(min(max(fX, lo), hi_x)) + PAD
+        iy = int(min(max(fY, lo), hi_y)) + PAD
+        v[x] = w00 * img[iy, ix] + w01 * img[iy, ix + 1] + w10 * img[iy + 1, ix] + w11 * img[iy + 1, ix + 1]
+        a[x] = w00 * gx[iy, ix] + w01 * gx[iy, ix + 1] + w10 * gx[iy + 1, ix] + w11 * gx[iy + 1, ix + 1]
+        b[x] = w00 * gy[iy, ix] + w01 * gy[iy, ix + 1] + w10 * gy[iy + 1, ix] + w11 * gy[iy + 1, ix + 1]
+        nX, nY = np.floor(X + 0.5), np.floor(Y + 0.5)
+        inside = 1.0 if (0.0 <= nX) & (nX < hi_x) & (0.0 <= nY) & (nY < hi_y) else 0.0
+        m[x] = inside
+        t[x] = float(template[y, x]) * inside
+
+
+@nb.njit(nogil=True, fastmath={"reassoc", "nsz", "contract"})
+def _row_sums(v: np.ndarray, a: np.ndarray, b: np.ndarray, m: np.ndarray, t: np.ndarray, xs: np.ndarray,
+              si: float, st: float, sii: float, stt: float, sit: float):
+    """One row's sums of :func:`ecc_affine` from :func:`_warp_row`'s arrays (``xs``: the columns as floats): the
+    products of the gradients and the input weighted by 1, x, x^2 over all pixels, and those with the template
+    and the pixel count over the pixels that count; the image sums (si, st, sii, stt, sit) carried on from the
+    rows before."""
+    aa0 = aa1 = aa2 = ab0 = ab1 = ab2 = bb0 = bb1 = bb2 = 0.0
+    av0 = av1 = bv0 = bv1 = at0 = at1 = bt0 = bt1 = a0 = a1 = b0 = b1 = 0.0
+    n = 0.0
+    for x in range(len(v)):
+        xx, vx, ax, bx, mx, tx = xs[x], v[x], a[x], b[x], m[x], t[x]
+        q = ax * ax
+        aa0 += q
+        aa1 += q * xx
+        aa2 += q * xx * xx
+        q = ax * bx
+        ab0 += q
+        ab1 += q * xx
+        ab2 += q * xx * xx
+        q = bx * bx
+        bb0 += q
+        bb1 += q * xx
+        bb2 += q * xx * xx
+        q = ax * vx
+        av0 += q
+        av1 += q * xx
+        q = bx * vx
+        bv0 += q
+        bv1 += q * xx
+        vm, am, bm = vx * mx, ax * mx, bx * mx           # 0 where the pixel does not count
+        n += mx
+        si += vm
+        st += tx
+        sii += vm * vx
+        stt += tx * tx
+        sit += vm * tx
+        q = am * tx
+        at0 += q
+        at1 += q * xx
+        q = bm * tx
+        bt0 += q
+        bt1 += q * xx
+        a0 += am
+        a1 += am * xx
+        b0 += bm
+        b1 += bm * xx
+    return (aa0, aa1, aa2, ab0, ab1, ab2, bb0, bb1, bb2, av0, av1, bv0, bv1, at0, at1, bt0, bt1, a0, a1, b0, b1,
+            n, si, st, sii, stt, sit)
 
 
 @nb.njit(**KERNEL)
@@ -97,15 +169,19 @@ def ecc_affine(template: np.ndarray, image: np.ndarray, warp: np.ndarray, iterat
     for i in range(2):
         for j in range(3):
             M[i, j] = warp[i, j]
-    img = blur3(image)
-    gx = np.empty((H, W), np.float32)
-    gy = np.empty((H, W), np.float32)
+    blurred = blur3(image)
+    img = np.zeros((H + 2 * PAD, W + 2 * PAD), np.float32)
+    gx = np.zeros((H + 2 * PAD, W + 2 * PAD), np.float32)
+    gy = np.zeros((H + 2 * PAD, W + 2 * PAD), np.float32)
     for y in range(H):
         ym, yp = _reflect(y - 1, H), _reflect(y + 1, H)
         for x in range(W):
-            gx[y, x] = np.float32(0.5) * (img[y, _reflect(x + 1, W)] - img[y, _reflect(x - 1, W)])
-            gy[y, x] = np.float32(0.5) * (img[yp, x] - img[ym, x])
+            img[y + PAD, x + PAD] = blurred[y, x]
+            gx[y + PAD, x + PAD] = np.float32(0.5) * (blurred[y, _reflect(x + 1, W)] - blurred[y, _reflect(x - 1, W)])
+            gy[y + PAD, x + PAD] = np.float32(0.5) * (blurred[yp, x] - blurred[ym, x])
     G = np.empty((6, 6))
+    rv, ra, rb, rm, rt = np.empty(w), np.empty(w), np.empty(w), np.empty(w), np.empty(w)
+    xs = np.arange(w).astype(np.float64)
     pa = np.empty(6)        # sum of J * (warped input), all pixels
     pt = np.empty(6)        # sum of J * template, pixels that count
     pn = np.empty(6)        # sum of J, pixels that count
@@ -127,63 +203,10 @@ def ecc_affine(template: np.ndarray, image: np.ndarray, warp: np.ndarray, iterat
         for y in range(h):
             rx = m01 * y + m02
             ry = m11 * y + m12
-            aa0 = aa1 = aa2 = ab0 = ab1 = ab2 = bb0 = bb1 = bb2 = 0.0
-            av0 = av1 = bv0 = bv1 = at0 = at1 = bt0 = bt1 = a0 = a1 = b0 = b1 = 0.0
-            for x in range(w):
-                xx = float(x)
-                X = m00 * xx + rx
-                Y = m10 * xx + ry
-                ix, iy = _floor(X), _floor(Y)
-                fx, fy = X - ix, Y - iy
-                w00, w01, w10, w11 = (1.0 - fy) * (1.0 - fx), (1.0 - fy) * fx, fy * (1.0 - fx), fy * fx
-                if 0 <= ix < W - 1 and 0 <= iy < H - 1:
-                    v = w00 * img[iy, ix] + w01 * img[iy, ix + 1] + w10 * img[iy + 1, ix] + w11 * img[iy + 1, ix + 1]
-                    a = w00 * gx[iy, ix] + w01 * gx[iy, ix + 1] + w10 * gx[iy + 1, ix] + w11 * gx[iy + 1, ix + 1]
-                    b = w00 * gy[iy, ix] + w01 * gy[iy, ix + 1] + w10 * gy[iy + 1, ix] + w11 * gy[iy + 1, ix + 1]
-                else:
-                    v = w00 * _at(img, ix, iy) + w01 * _at(img, ix + 1, iy) + w10 * _at(img, ix, iy + 1) + \
-                        w11 * _at(img, ix + 1, iy + 1)
-                    a = w00 * _at(gx, ix, iy) + w01 * _at(gx, ix + 1, iy) + w10 * _at(gx, ix, iy + 1) + \
-                        w11 * _at(gx, ix + 1, iy + 1)
-                    b = w00 * _at(gy, ix, iy) + w01 * _at(gy, ix + 1, iy) + w10 * _at(gy, ix, iy + 1) + \
-                        w11 * _at(gy, ix + 1, iy + 1)
-                q = a * a
-                aa0 += q
-                aa1 += q * xx
-                aa2 += q * xx * xx
-                q = a * b
-                ab0 += q
-                ab1 += q * xx
-                ab2 += q * xx * xx
-                q = b * b
-                bb0 += q
-                bb1 += q * xx
-                bb2 += q * xx * xx
-                q = a * v
-                av0 += q
-                av1 += q * xx
-                q = b * v
-                bv0 += q
-                bv1 += q * xx
-                nx, ny = _floor(X + 0.5), _floor(Y + 0.5)
-                if 0 <= nx < W and 0 <= ny < H:
-                    t = float(template[y, x])
-                    n += 1
-                    si += v
-                    st += t
-                    sii += v * v
-                    stt += t * t
-                    sit += v * t
-                    q = a * t
-                    at0 += q
-                    at1 += q * xx
-                    q = b * t
-                    bt0 += q
-                    bt1 += q * xx
-                    a0 += a
-                    a1 += a * xx
-                    b0 += b
-                    b1 += b * xx
+            _warp_row(img, gx, gy, template, y, m00, rx, m10, ry, W, H, rv, ra, rb, rm, rt)
+            (aa0, aa1, aa2, ab0, ab1, ab2, bb0, bb1, bb2, av0, av1, bv0, bv1, at0, at1, bt0, bt1, a0, a1, b0, b1,
+             cnt, si, st, sii, stt, sit) = _row_sums(rv, ra, rb, rm, rt, xs, si, st, sii, stt, sit)
+            n += int(cnt)
             yy = float(y)
             y2 = yy * yy
             # The Hessian's upper triangle (parameters a00, a10, a01, a11, a02, a12).

@@ -7,12 +7,14 @@ now and then the followed crop.
 from __future__ import annotations
 
 import cv2
+import numba as nb
 import numpy as np
 
+from facepuppet._util.jit import KERNEL
 from facepuppet.capture.color.face import box_in_crop
 from facepuppet.capture.curves import bezier_points
 
-__all__ = ["FaceTemplate", "TEMPLATE_LINE", "TEMPLATE_BLUR", "TEMPLATE_BOX", "TEMPLATE_SAMPLES"]
+__all__ = ["FaceTemplate", "TEMPLATE_LINE", "TEMPLATE_BLUR", "TEMPLATE_BOX", "TEMPLATE_SAMPLES", "box_correlation"]
 
 # Tuning constants                        unit         what it does
 TEMPLATE_LINE = 0.06                      # face units   thickness of the template's lines
@@ -48,10 +50,30 @@ class FaceTemplate:
 
     def score(self, C: np.ndarray, S_px: np.ndarray) -> float:
         """Correlation (in [-1, 1]) of the feature intensity C (H, W) with the template moved by the similarity
-        ``S_px`` (2, 3) in crop pixels (where the eyes put the layout)."""
+        ``S_px`` (2, 3) in crop pixels (where the eyes put the layout), over :attr:`box` (:func:`box_correlation`)."""
         T = cv2.warpAffine(self.image, S_px.astype(np.float32), self.size, flags=cv2.INTER_LINEAR)
-        x0, y0, x1, y1 = self.box
-        a, t = C[y0:y1, x0:x1].ravel(), T[y0:y1, x0:x1].ravel()        # copies, row by row
-        a = a - a.mean()
-        t = t - t.mean()
-        return float((a * t).sum() / max(np.sqrt((a * a).sum() * (t * t).sum()), 1e-9))
+        return float(box_correlation(C, T, *self.box))
+
+
+@nb.njit(fastmath={"reassoc", "nsz", "contract"}, **KERNEL)
+def box_correlation(C: np.ndarray, T: np.ndarray, x0: int, y0: int, x1: int, y1: int) -> float:
+    """Correlation of ``C`` and ``T`` (H, W) float32 over the rectangle [x0, x1) x [y0, y1) (clipped to them): the
+    Pearson coefficient of the rectangle's pixel pairs, its denominator at least 1e-9; sums in float64 (free to
+    be reordered); 0.0 for an empty rectangle."""
+    H, W = C.shape
+    xa, xb, ya, yb = max(x0, 0), min(x1, W), max(y0, 0), min(y1, H)
+    if xb <= xa or yb <= ya:
+        return 0.0
+    sc = st = scc = stt = sct = 0.0
+    for y in range(ya, yb):
+        for x in range(xa, xb):
+            c, t = float(C[y, x]), float(T[y, x])
+            sc += c
+            st += t
+            scc += c * c
+            stt += t * t
+            sct += c * t
+    n = float((xb - xa) * (yb - ya))
+    vc = max(scc - sc * sc / n, 0.0)
+    vt = max(stt - st * st / n, 0.0)
+    return (sct - sc * st / n) / max(np.sqrt(vc * vt), 1e-9)

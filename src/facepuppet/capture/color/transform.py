@@ -242,6 +242,16 @@ def skin_fraction(crop: np.ndarray, boxes: np.ndarray, table: np.ndarray) -> flo
     return hit / n if n else 0.0
 
 
+@nb.njit(**INNER)
+def _eq1_row(v: np.ndarray, g: np.ndarray, hue_term: np.ndarray, out: np.ndarray, w1: float, kv: float,
+             w2: float) -> None:
+    """One row of Eq. 1 from the row's 8-bit value ``v`` and green ``g`` (as floats) and the hue's term
+    (w4 G(H), or 0): ``out = w1 (v - g) / max(v, 1) + kv v + w2 + hue_term`` (float32 out), summed in that order."""
+    for x in range(len(out)):
+        vx = v[x]
+        out[x] = w1 * (vx - g[x]) / max(vx, 1.0) + kv * vx + w2 + hue_term[x]
+
+
 @nb.njit(**KERNEL)
 def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarray, min_saturation: float,
                       skin_boxes: np.ndarray, feature_boxes: np.ndarray):
@@ -279,16 +289,20 @@ def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarr
     raw = np.empty((h, w), np.float32)
     value = np.empty((h, w), np.uint8)
     use_hue = w4 != 0.0
+    # Per row: the value, the green and the hue's term pixel by pixel (table lookups), then Eq. 1's arithmetic
+    # over the row in a loop of its own (free of lookups and branches, it is vectorised).
+    v_row, g_row, hue_row = np.empty(w), np.empty(w), np.zeros(w)
     for y in range(h):
         for x in range(w):
             r, g, b = np.int64(crop[y, x, 0]), np.int64(crop[y, x, 1]), np.int64(crop[y, x, 2])
             v = max(r, g, b)
-            i = w1 * (v - g) / max(v, 1) + kv * v + w2
             if use_hue:
                 hue, s = hue_sat_u8(r, g, b, v)
-                i = i + w4 * hue_table[hue] if s >= s_min else i
-            raw[y, x] = i
+                hue_row[x] = w4 * hue_table[hue] if s >= s_min else 0.0
+            v_row[x] = v
+            g_row[x] = g
             value[y, x] = v
+        _eq1_row(v_row, g_row, hue_row, raw[y], w1, kv, w2)
     low = median_of_boxes(raw, skin_boxes)
     top, peak = top_of_boxes(raw, feature_boxes, low)
     feat = low + min(top - low, SPECK * (peak - low))

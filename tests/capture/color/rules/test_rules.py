@@ -8,7 +8,7 @@ from facepuppet.capture.color.blobs import close_mask, ellipse_kernel, label8, o
 from facepuppet.capture.color.eye_anchors import eye_centres
 from facepuppet.capture.color.profile import GENERIC_MOUTH_REACH
 from facepuppet.capture.color.rules import BLOB_PARAMS, OUTLINE_PARTS, outline_features
-from facepuppet.capture.color.rules.kernels import interp, median, quantile, sort_order
+from facepuppet.capture.color.rules.kernels import interp, median, quantile, quantile_pair, sort_order
 from facepuppet.capture.color.transform import (
     DEFAULT_WEIGHTS,
     LipHue,
@@ -49,6 +49,7 @@ def test_morphology_and_labels_match_opencv():
 
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 def test_median_and_quantile_by_selection_equal_the_sorted_forms(dtype):
+    # quantile_pair: both quantiles of one selection, the same values as two quantile calls on float64 data.
     rng = np.random.default_rng(5)
     for n in [*range(1, 30), 479, 480, 920]:
         for a in (rng.random(n), rng.integers(0, 4, n), rng.integers(0, 256, n)):  # ties and grey levels too
@@ -61,6 +62,9 @@ def test_median_and_quantile_by_selection_equal_the_sorted_forms(dtype):
                 i = min(int(pos), max(n - 2, 0))
                 assert quantile(a, q) == float(d[i]) + (pos - i) * float(d[min(i + 1, n - 1)] - d[i])
                 assert np.isclose(quantile(a, q), np.quantile(a.astype(np.float64), q))
+            a64 = a.astype(np.float64)
+            for lo, hi in ((0.5, 0.97), (0.0, 1.0), (0.3, 0.3), (0.75, 0.76)):
+                assert quantile_pair(a, lo, hi) == (quantile(a64, lo), quantile(a64, hi))
 
 
 def test_interp_and_order_equal_numpys():

@@ -17,7 +17,15 @@ import numpy as np
 
 from facepuppet._util.jit import INNER, KERNEL
 from facepuppet.capture.color.blobs import blob_kernel
-from facepuppet.capture.color.rules.kernels import along, interp, line_fit, median, quantile, sample_profile, sort_order
+from facepuppet.capture.color.rules.kernels import (
+    along,
+    interp,
+    line_fit,
+    median,
+    quantile_pair,
+    sample_profile,
+    sort_order,
+)
 from facepuppet.capture.curves import CURVE_NAMES
 
 __all__ = ["BROW_DEPTH", "brow_outlines", "brow_edges", "closed_columns", "median_level"]
@@ -73,11 +81,9 @@ def brow_outlines(raw: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: n
             continue
         # Brows are often fainter than the eyes and lips the contrast C is scaled to: normalise the raw
         # intensity of Eq. 1 within the rectangle (forehead skin at the median).
-        sub = raw[y0:y1, x0:x1].astype(np.float64)
-        flat = sub.ravel()
-        lo_v = quantile(flat, BROW_SKIN_QUANTILE)
-        hi_v = quantile(flat, BROW_TOP_QUANTILE)
-        norm = ((sub - lo_v) / max(hi_v - lo_v, 1e-6)).astype(np.float32)
+        sub = raw[y0:y1, x0:x1]
+        lo_v, hi_v = quantile_pair(sub.copy().ravel(), BROW_SKIN_QUANTILE, BROW_TOP_QUANTILE)
+        norm = ((sub.astype(np.float64) - lo_v) / max(hi_v - lo_v, 1e-6)).astype(np.float32)
         c = _BROW[side]
         ex = 0.25 * layout[c, :, 0].sum()
         ey = 0.25 * layout[c, :, 1].sum()

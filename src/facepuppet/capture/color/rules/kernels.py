@@ -17,8 +17,8 @@ from facepuppet._util.jit import INNER
 from facepuppet.capture.curves import bernstein
 
 __all__ = ["SAMPLES", "BASIS", "MID_WEIGHT", "CENTRAL_WEIGHT", "CENTRAL", "MIN_COLUMNS", "along", "select_kth",
-           "median", "quantile", "interp", "sort_order", "mid_shift", "sample_profile", "line_fit", "top_of_boxes",
-           "median_of_boxes"]
+           "median", "quantile", "quantile_pair", "interp", "sort_order", "mid_shift", "sample_profile", "line_fit",
+           "top_of_boxes", "median_of_boxes"]
 
 #: Boundary samples per curve, K.
 SAMPLES = 12
@@ -96,6 +96,55 @@ def quantile(a: np.ndarray, q: float) -> float:
     hi = d[j]
     lo = d[:j].max() if j > i else hi
     return lo + (pos - i) * (hi - lo)
+
+
+@nb.njit(**INNER)
+def _select_range(d: np.ndarray, lo: int, hi: int, k: int) -> None:
+    """Arrange ``d[lo:hi + 1]`` in place so that ``d[k]`` is its value of rank k (as :func:`select_kth` does for a
+    whole array: smaller or equal values before it, greater or equal after it)."""
+    while lo < hi:
+        p = d[(lo + hi) // 2]
+        i, j = lo, hi
+        while i <= j:
+            while d[i] < p:
+                i += 1
+            while d[j] > p:
+                j -= 1
+            if i <= j:
+                d[i], d[j] = d[j], d[i]
+                i += 1
+                j -= 1
+        if k <= j:
+            hi = j
+        elif k >= i:
+            lo = i
+        else:
+            break
+
+
+@nb.njit(**INNER)
+def quantile_pair(a: np.ndarray, q_lo: float, q_hi: float):
+    """``(quantile(a, q_lo), quantile(a, q_hi))`` of a non-empty 1-D array for ``q_lo <= q_hi`` (the same values,
+    :func:`quantile`): the order statistics are selected on one float64 copy, the upper ones among the values
+    above the lower ones."""
+    n = len(a)
+    d = np.empty(n)
+    for t in range(n):
+        d[t] = a[t]
+    pos1, pos2 = q_lo * (n - 1), q_hi * (n - 1)
+    i1 = min(int(pos1), n - 2) if n > 1 else 0
+    i2 = min(int(pos2), n - 2) if n > 1 else 0
+    j1, j2 = min(i1 + 1, n - 1), min(i2 + 1, n - 1)
+    _select_range(d, 0, n - 1, j1)                 # d[j1] of its rank, the j1 smallest before it
+    hi1 = d[j1]
+    lo1 = d[:j1].max() if j1 > i1 else hi1
+    if j2 == j1:
+        hi2, lo2 = hi1, lo1
+    else:
+        _select_range(d, j1 + 1, n - 1, j2)        # among the values above d[j1]
+        hi2 = d[j2]
+        lo2 = d[j1 + 1:j2].max() if j2 - 1 > j1 else d[j1]
+    return lo1 + (pos1 - i1) * (hi1 - lo1), lo2 + (pos2 - i2) * (hi2 - lo2)
 
 
 @nb.njit(**INNER)
