@@ -61,7 +61,6 @@ OPENING = {
                  "eye search's mean shift)"),
     "dark_high": (0.8, "skin luma", "how far under the skin's luma a pixel is fully dark"),
     "dark_above": (0.1, "face units", "the mean shift's reach above the eye (its reach below: the eye window's)"),
-    "dark_agree": (0.15, "face units", "farthest the darkness's place may lie from C's, each way, to be taken"),
 }
 
 #: Landmark backends (image mode) by model path and options, made on first need and kept for the process:
@@ -124,7 +123,7 @@ def calibrated_anchors(anchors: np.ndarray, found: np.ndarray, unit: float, *,
 
 
 _OPENING_ORDER = ("chroma", "luma", "tail", "least", "full", "outset", "steps", "above", "below", "local", "lift",
-                  "half_width", "wider", "agree", "dark_low", "dark_high", "dark_above", "dark_agree")
+                  "half_width", "wider", "agree", "dark_low", "dark_high", "dark_above")
 
 
 def _opening_table() -> np.ndarray:
@@ -313,12 +312,7 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
         found, dark = dark_centres(darkness(crop, skin[0], table[14], table[15]), anchors, half_w,
                                    half_h, min(int(np.round(table[16] * unit)), half_h))
         if found:
-            # Where the two part by more than ``dark_agree``, the window is off the eye (a turned or too large
-            # face frame: the darkness takes in the hair and shadows beside the face) and C's place stands.
-            near = table[17] * unit
-            for k in range(2):
-                if abs(dark[k, 0] - out[k, 0]) <= near and abs(dark[k, 1] - out[k, 1]) <= near:
-                    out[k, 0], out[k, 1] = dark[k, 0], dark[k, 1]
+            out = dark
     h, w = C.shape
     s2 = skin[1] * skin[1] + skin[2] * skin[2]
     if s2 < 1.0:
