@@ -2,9 +2,9 @@
 shared.
 
 The colour tracker aligns its face frame on the eyes: the centres it finds (:func:`eye_opening_centres`: the
-height by mean shift of the feature intensity, :func:`eye_centres`; the place along the eye the midpoint of the
-eye's opening, which dark makeup, shadows and the gaze do not move) are mapped onto the profile's eye anchors,
-and the layout follows. A trained profile's anchors are learnt where :func:`eye_centres` lands on the
+height by mean shift of the darkness under the skin's luma, :func:`dark_centres`; the place along the eye the
+midpoint of the eye's opening, which dark makeup, shadows and the gaze do not move) are mapped onto the
+profile's eye anchors, and the layout follows. A trained profile's anchors are learnt where :func:`eye_centres` lands on the
 performer's own labelled frames, which calibrates its bias on that face out, so with it the tracker uses the
 mean shift alone; the opening's place is for the generic profile's average anchors. Where the height found
 sits relative to the eye itself depends on the performer (lashes, lid shadows, brows close above): the generic
@@ -31,7 +31,8 @@ from facepuppet.capture.color.lids import EYES
 from facepuppet.capture.curves import bezier_points
 from facepuppet.errors import FacepuppetError
 
-__all__ = ["EYE_STEPS", "EYE_LEAST", "OPENING", "OPENING_TABLE", "eye_centres", "eye_opening_centres", "eye_centres_of",
+__all__ = ["EYE_STEPS", "EYE_LEAST", "OPENING", "OPENING_TABLE", "eye_centres", "darkness", "dark_centres",
+           "eye_opening_centres", "eye_centres_of",
            "calibrated_anchors", "shared_landmarker", "landmark_curves"]
 
 log = logging.getLogger(__name__)
@@ -56,6 +57,10 @@ OPENING = {
     "half_width": (0.3, "face units", "half width of the window the opening is looked for in"),
     "agree": (0.1, "face units", "farthest the opening's place may lie from the mean shift's (on the eye's blob)"),
     "wider": (1.15, "ratio", "most one eye's opening may be wider than the other's (cut at its outer end)"),
+    "dark_low": (0.3, "skin luma", "how far under the skin's luma (a share of it) a pixel's darkness starts (the "
+                 "eye search's mean shift)"),
+    "dark_high": (0.8, "skin luma", "how far under the skin's luma a pixel is fully dark"),
+    "dark_above": (0.1, "face units", "the mean shift's reach above the eye (its reach below: the eye window's)"),
 }
 
 #: Landmark backends (image mode) by model path and options, made on first need and kept for the process:
@@ -118,7 +123,7 @@ def calibrated_anchors(anchors: np.ndarray, found: np.ndarray, unit: float, *,
 
 
 _OPENING_ORDER = ("chroma", "luma", "tail", "least", "full", "outset", "steps", "above", "below", "local", "lift",
-                  "half_width", "wider", "agree")
+                  "half_width", "wider", "agree", "dark_low", "dark_high", "dark_above")
 
 
 def _opening_table() -> np.ndarray:
@@ -209,10 +214,70 @@ def _skin_reference(crop: np.ndarray, cheeks: np.ndarray) -> np.ndarray:
 
 
 @nb.njit(**KERNEL)
+def darkness(crop: np.ndarray, skin_luma: float, low: float, high: float) -> np.ndarray:
+    """(H, W) float32 in [0, 1]: how much darker than the skin each pixel of the crop (H, W, 3) uint8 RGB is, a
+    smoothstep of (skin_luma - Y) / skin_luma from ``low`` to ``high`` (luma Y as :func:`_skin_reference`'s).
+
+    Lashes, iris and pupil are darker than the skin around them whatever the complexion and the light's colour;
+    the contrast C measures a colour feature whose scale is set by the darkest, most saturated pixels of the
+    crop, which a dark complexion moves to the lash line and the hair.
+    """
+    h, w = crop.shape[:2]
+    out = np.zeros((h, w), np.float32)
+    inv = 1.0 / max((high - low) * skin_luma, 1e-6)
+    for y in range(h):
+        for x in range(w):
+            v = 0.299 * float(crop[y, x, 0]) + 0.587 * float(crop[y, x, 1]) + 0.114 * float(crop[y, x, 2])
+            t = min(max((skin_luma * (1.0 - low) - v) * inv, 0.0), 1.0)
+            out[y, x] = t * t * (3.0 - 2.0 * t)
+    return out
+
+
+@nb.njit(**KERNEL)
+def dark_centres(D: np.ndarray, anchors: np.ndarray, half_w: int, half_h: int, above: int):
+    """Eye centres (2, 2) in crop pixels by :data:`EYE_STEPS` mean-shift steps of D² (``D``: (H, W) darkness,
+    :func:`darkness`) around the expected ``anchors`` (>= 2, 2), right eye first, in a window ``2 half_w + 1``
+    pixels wide reaching ``above`` pixels over its centre and ``half_h`` under it.
+
+    Above the eye lie the brows, as dark as the lashes, at a face's own distance (close on some faces); under
+    it nothing as dark down to the nostrils: the window reaches less far up than down.
+
+    Returns (ok, centres): ok is False when a window holds no darkness.
+    """
+    h, w = D.shape
+    out = np.zeros((2, 2))
+    for k in range(2):
+        cx, cy = anchors[k, 0], anchors[k, 1]
+        for _ in range(EYE_STEPS):
+            x0 = int(np.round(cx)) - half_w
+            yc = int(np.round(cy))
+            xa, ya = max(x0, 0), max(yc - above, 0)
+            xb, yb = min(x0 + 2 * half_w + 1, w), min(yc + half_h + 1, h)
+            total = sx = sy = 0.0
+            for y in range(ya, yb):
+                for x in range(xa, xb):
+                    v = float(D[y, x]) ** 2
+                    total += v
+                    sx += v * x
+                    sy += v * y
+            if total <= 0.0:
+                return False, out
+            cx, cy = sx / total, sy / total
+        out[k, 0], out[k, 1] = cx, cy
+    return True, out
+
+
+@nb.njit(**KERNEL)
 def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anchors: np.ndarray, half_w: int,
                         half_h: int, unit: float, table: np.ndarray):
-    """Eye centres (2, 2) in crop pixels: the height from :func:`eye_centres`, the position along the eye the
-    midpoint of the extent of the eye's opening, which is the midpoint of its corners.
+    """Eye centres (2, 2) in crop pixels: the height by mean shift of the darkness under the skin's luma
+    (:func:`dark_centres`), the position along the eye the midpoint of the extent of the eye's opening, which is
+    the midpoint of its corners.
+
+    The contrast C (a colour feature) tells whether a window holds an eye at all (:func:`eye_centres`' test);
+    where in it the eye lies is read off the luma: on a dark complexion the iris is as coloured as the skin and C
+    carries the lash line and the hair beside the face, off to the eye's upper and outer side, while lashes,
+    iris and pupil are darker than the skin on every face. Without skin luma the mean shift of C places it.
 
     The opening (white of the eye, a light iris) is told from skin by its colour and from lashes, eyeliner,
     pupil and shadow by its light: a pixel belongs to it when its chroma along the cheeks' (Cr, Cb) direction
@@ -226,9 +291,9 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
     The two eyes are the same size: an opening wider than ``wider`` times the other's has taken in something
     beyond its outer corner (pale makeup or skin, the background by a turned head), and its outer end is cut
     back to that width. The centre is the extent's midpoint moved inward by ``outset`` face units. An eye
-    whose opening covers less than ``least`` face units² (closed, or in deep shadow) keeps the position of
-    :func:`eye_centres`; from ``least`` to ``full`` the position goes over linearly from that to the opening's,
-    which is kept within ``agree`` of that of :func:`eye_centres` (the mean shift holds to the dark eye; a window
+    whose opening covers less than ``least`` face units² (closed, or in deep shadow) keeps the mean shift's
+    position; from ``least`` to ``full`` the position goes over linearly from that to the opening's,
+    which is kept within ``agree`` of the mean shift's (the mean shift holds to the dark eye; a window
     off the eye may see pale skin, hair or the background beside it).
     The names are those of :data:`OPENING`, in ``table`` in :data:`OPENING_TABLE`'s order.
 
@@ -241,8 +306,14 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
     ok, out = eye_centres(C, anchors, half_w, half_h)
     if not ok:
         return ok, out
-    h, w = C.shape
     skin = _skin_reference(crop, cheeks)
+    # The eye's place by the darkness, in a window reaching dark_above over it (the brows lie above).
+    if skin[0] > 1.0:
+        found, dark = dark_centres(darkness(crop, skin[0], table[14], table[15]), anchors, half_w,
+                                   half_h, min(int(np.round(table[16] * unit)), half_h))
+        if found:
+            out = dark
+    h, w = C.shape
     s2 = skin[1] * skin[1] + skin[2] * skin[2]
     if s2 < 1.0:
         return ok, out                      # no skin chroma to tell the opening from
