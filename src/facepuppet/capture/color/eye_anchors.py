@@ -4,13 +4,13 @@ shared.
 The colour tracker aligns its face frame on the eyes: the centres it finds (:func:`eye_opening_centres`: the
 height by mean shift of the darkness under the skin's luma, :func:`dark_centres`; the place along the eye the
 midpoint of the eye's opening, which dark makeup, shadows and the gaze do not move) are mapped onto the
-profile's eye anchors, and the layout follows. A trained profile's anchors are learnt where :func:`eye_centres` lands on the
-performer's own labelled frames, which calibrates its bias on that face out, so with it the tracker uses the
-mean shift alone; the opening's place is for the generic profile's average anchors. Where the height found
-sits relative to the eye itself depends on the performer (lashes, lid shadows, brows close above): the generic
-anchors may put the layout a little off. When
-the landmark backend (MediaPipe) is available, the tracker asks it once, at its first acquisition, where the
-eyes are, and moves its anchors so the layout's eye centres land on them (:func:`calibrated_anchors`).
+profile's eye anchors, and the layout follows. A trained profile's anchors are learnt where :func:`eye_centres`
+lands on the performer's own labelled frames, which calibrates its bias on that face out, so with it the tracker
+uses the mean shift alone; the opening's place is for the generic profile's average anchors. Where the height
+found sits relative to the eye itself depends on the performer (lashes, lid shadows, brows close above): the
+generic anchors may put the layout a little off. When the landmark backend (MediaPipe) is available, the tracker
+asks it once, at its first acquisition, where the eyes are, and moves its anchors so the layout's eye centres
+land on them (:func:`calibrated_anchors`).
 
 Conventions: crop pixels of one face crop (x right, y down); an eye centre is the mean of the points along the
 eye's upper and lower lid curves, right eye first (as in the anchors).
