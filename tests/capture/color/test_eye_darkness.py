@@ -68,7 +68,7 @@ EYES = ANCHORS[:2] + [[3.0, 1.0], [-3.0, 1.0]]
 
 def _found(tone, rng):
     crop = _face(tone, EYES, rng=rng)
-    ok, found = eye_opening_centres(_contrast(crop), crop, CHEEKS, ANCHORS, *WINDOW, PX, OPENING_TABLE)
+    ok, found = eye_opening_centres(_contrast(crop), crop, CHEEKS, ANCHORS, *WINDOW, PX, OPENING_TABLE, True)
     assert ok
     return found
 

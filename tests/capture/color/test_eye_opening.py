@@ -61,7 +61,7 @@ ANCHORS = np.array([[37.0, 38.0], [83.0, 38.0]])
 
 
 def _search(crop, C, anchors=ANCHORS):
-    return eye_opening_centres(C, crop, CHEEKS, anchors, *WINDOW, UNIT, OPENING_TABLE)
+    return eye_opening_centres(C, crop, CHEEKS, anchors, *WINDOW, UNIT, OPENING_TABLE, True)
 
 
 def _dark_mean_shift(crop, anchors=ANCHORS):

@@ -31,7 +31,8 @@ from facepuppet.capture.color.lids import EYES
 from facepuppet.capture.curves import bezier_points
 from facepuppet.errors import FacepuppetError
 
-__all__ = ["EYE_STEPS", "EYE_LEAST", "OPENING", "OPENING_TABLE", "eye_centres", "darkness", "dark_centres",
+__all__ = ["EYE_STEPS", "EYE_LEAST", "OPENING", "OPENING_TABLE", "eye_centres", "darkness", "without_long_runs",
+           "dark_centres",
            "eye_opening_centres", "eye_centres_of",
            "calibrated_anchors", "shared_landmarker", "landmark_curves"]
 
@@ -61,6 +62,9 @@ OPENING = {
                  "eye search's mean shift)"),
     "dark_high": (0.8, "skin luma", "how far under the skin's luma a pixel is fully dark"),
     "dark_above": (0.1, "face units", "the mean shift's reach above the eye (its reach below: the eye window's)"),
+    "dark_agree": (0.08, "face units", "farthest the darkness's place may lie from C's, each way, to be taken"),
+    "dark_level": (0.5, "darkness", "darkness from which a pixel belongs to a dark run (the runs' test)"),
+    "dark_wide": (0.5, "face units", "longest horizontal dark run the eye's darkness keeps (wider: a rim, brows)"),
 }
 
 #: Landmark backends (image mode) by model path and options, made on first need and kept for the process:
@@ -123,7 +127,8 @@ def calibrated_anchors(anchors: np.ndarray, found: np.ndarray, unit: float, *,
 
 
 _OPENING_ORDER = ("chroma", "luma", "tail", "least", "full", "outset", "steps", "above", "below", "local", "lift",
-                  "half_width", "wider", "agree", "dark_low", "dark_high", "dark_above")
+                  "half_width", "wider", "agree", "dark_low", "dark_high", "dark_above", "dark_agree", "dark_level",
+                  "dark_wide")
 
 
 def _opening_table() -> np.ndarray:
@@ -234,6 +239,31 @@ def darkness(crop: np.ndarray, skin_luma: float, low: float, high: float) -> np.
 
 
 @nb.njit(**KERNEL)
+def without_long_runs(D: np.ndarray, level: float, wide: int) -> np.ndarray:
+    """A copy of the darkness ``D`` (H, W) float32 with the pixels of its dark runs along a row (consecutive
+    pixels with ``D >= level``) longer than ``wide`` pixels set to 0.
+
+    The eye's dark parts (lashes, iris, pupil) make a blob about as wide as the eye; a glasses rim's top and
+    bottom and the brows make longer horizontal lines, which may not draw the eye search.
+    """
+    h, w = D.shape
+    out = D.copy()
+    for y in range(h):
+        x = 0
+        while x < w:
+            if D[y, x] < level:
+                x += 1
+                continue
+            e = x
+            while e < w and D[y, e] >= level:
+                e += 1
+            if e - x > wide:
+                out[y, x:e] = 0.0
+            x = e
+    return out
+
+
+@nb.njit(**KERNEL)
 def dark_centres(D: np.ndarray, anchors: np.ndarray, half_w: int, half_h: int, above: int):
     """Eye centres (2, 2) in crop pixels by :data:`EYE_STEPS` mean-shift steps of D² (``D``: (H, W) darkness,
     :func:`darkness`) around the expected ``anchors`` (>= 2, 2), right eye first, in a window ``2 half_w + 1``
@@ -269,7 +299,7 @@ def dark_centres(D: np.ndarray, anchors: np.ndarray, half_w: int, half_h: int, a
 
 @nb.njit(**KERNEL)
 def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anchors: np.ndarray, half_w: int,
-                        half_h: int, unit: float, table: np.ndarray):
+                        half_h: int, unit: float, table: np.ndarray, dark: bool):
     """Eye centres (2, 2) in crop pixels: the height by mean shift of the darkness under the skin's luma
     (:func:`dark_centres`), the position along the eye the midpoint of the extent of the eye's opening, which is
     the midpoint of its corners.
@@ -277,7 +307,12 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
     The contrast C (a colour feature) tells whether a window holds an eye at all (:func:`eye_centres`' test);
     where in it the eye lies is read off the luma: on a dark complexion the iris is as coloured as the skin and C
     carries the lash line and the hair beside the face, off to the eye's upper and outer side, while lashes,
-    iris and pupil are darker than the skin on every face. Without skin luma the mean shift of C places it.
+    iris and pupil are darker than the skin on every face. The darkness's dark runs longer than ``dark_wide``
+    across (glasses rims, brows; :func:`without_long_runs`) are left out, and the darkness's place is taken only
+    within ``dark_agree`` of C's (a lens's reflection weakens the eye, the rims beside it draw the darkness).
+    Without ``dark``
+    (the acquisition: its candidate frames may sit off the face, where the darkness takes in the hair and the
+    face's sides) or without skin luma the mean shift of C places it.
 
     The opening (white of the eye, a light iris) is told from skin by its colour and from lashes, eyeliner,
     pupil and shadow by its light: a pixel belongs to it when its chroma along the cheeks' (Cr, Cb) direction
@@ -299,7 +334,8 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
 
     ``C``: (H, W) float32 contrast C; ``crop``: (H, W, 3) uint8 RGB face crop; ``cheeks``: (K, 4) int64 skin
     rectangles x0, y0, x1, y1; ``anchors``: (>= 2, 2) expected centres, right eye (image left) first;
-    ``half_w``, ``half_h``: :func:`eye_centres`' window; ``unit``: crop pixels per face unit.
+    ``half_w``, ``half_h``: :func:`eye_centres`' window; ``unit``: crop pixels per face unit; ``dark``: whether
+    the darkness places the eye (a followed face).
 
     Returns (ok, centres): ok as :func:`eye_centres`'.
     """
@@ -308,11 +344,17 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
         return ok, out
     skin = _skin_reference(crop, cheeks)
     # The eye's place by the darkness, in a window reaching dark_above over it (the brows lie above).
-    if skin[0] > 1.0:
-        found, dark = dark_centres(darkness(crop, skin[0], table[14], table[15]), anchors, half_w,
-                                   half_h, min(int(np.round(table[16] * unit)), half_h))
+    if dark and skin[0] > 1.0:
+        D = without_long_runs(darkness(crop, skin[0], table[14], table[15]), table[18],
+                              int(np.round(table[19] * unit)))
+        found, dark = dark_centres(D, anchors, half_w, half_h, min(int(np.round(table[16] * unit)), half_h))
         if found:
-            out = dark
+            # Where the two part by more than ``dark_agree``, the darkness has been drawn off the eye (a rim,
+            # the hair beside the face) and C's place stands.
+            near = table[17] * unit
+            for k in range(2):
+                if abs(dark[k, 0] - out[k, 0]) <= near and abs(dark[k, 1] - out[k, 1]) <= near:
+                    out[k, 0], out[k, 1] = dark[k, 0], dark[k, 1]
     h, w = C.shape
     s2 = skin[1] * skin[1] + skin[2] * skin[2]
     if s2 < 1.0:
