@@ -6,7 +6,15 @@ import numpy as np
 import pytest
 
 from facepuppet.capture.color.config import ColorTrackerConfig
-from facepuppet.capture.color.eye_anchors import OPENING, OPENING_TABLE, dark_centres, darkness, eye_opening_centres
+from facepuppet.capture.color.eye_anchors import (
+    OPENING,
+    OPENING_TABLE,
+    dark_centres,
+    darkness,
+    eye_centres,
+    eye_opening_centres,
+    without_long_runs,
+)
 from facepuppet.capture.color.face import CROP_EXTENT, FEATURE_BOXES, box_in_crop
 from facepuppet.capture.color.profile import GENERIC_ANCHORS
 from facepuppet.capture.color.tracker import ColorTracker
@@ -100,3 +108,24 @@ def test_brows_close_above_do_not_lift_the_eye(rng):
     # A window reaching as far up as down takes the brow in.
     ok, sym = dark_centres(D, ANCHORS, *WINDOW, WINDOW[1])
     assert np.all(sym[:, 1] < alone[:, 1] - 1.0)
+
+
+def test_long_dark_runs_across_are_left_out_and_short_ones_kept():
+    D = np.zeros((5, 40), np.float32)
+    D[1, 2:30] = 1.0                        # a rim's line, 28 px long
+    D[3, 5:15] = 0.9                        # an eye's blob's row, 10 px long
+    D[3, 20] = 0.4                          # under the level: kept whatever its run
+    out = without_long_runs(D, 0.5, 24)
+    assert not out[1].any()
+    np.testing.assert_array_equal(out[3], D[3])
+    np.testing.assert_array_equal(D[1, 2:30], 1.0)      # the input is left as it was
+
+
+def test_the_darkness_is_not_used_without_dark(rng):
+    crop = _face(DARK, EYES, rng=rng)
+    C = _contrast(crop)
+    _, with_c = eye_opening_centres(C, crop, CHEEKS, ANCHORS, *WINDOW, PX, OPENING_TABLE, False)
+    ok, by_c = eye_centres(C, ANCHORS, *WINDOW)
+    assert ok
+    # Without ``dark`` the height is the mean shift of C's (the opening only moves the place along the eye).
+    np.testing.assert_allclose(with_c[:, 1], by_c[:, 1], atol=1e-9)
