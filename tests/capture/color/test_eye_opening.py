@@ -3,7 +3,14 @@
 import cv2
 import numpy as np
 
-from facepuppet.capture.color.eye_anchors import OPENING_TABLE, eye_centres, eye_opening_centres
+from facepuppet.capture.color.eye_anchors import (
+    OPENING,
+    OPENING_TABLE,
+    dark_centres,
+    darkness,
+    eye_centres,
+    eye_opening_centres,
+)
 
 SKIN = (205, 150, 120)
 CHEEKS = np.array([[10, 70, 30, 85], [90, 70, 110, 85]], dtype=np.int64)
@@ -54,20 +61,31 @@ ANCHORS = np.array([[37.0, 38.0], [83.0, 38.0]])
 
 
 def _search(crop, C, anchors=ANCHORS):
-    return eye_opening_centres(C, crop, CHEEKS, anchors, *WINDOW, UNIT, OPENING_TABLE)
+    return eye_opening_centres(C, crop, CHEEKS, anchors, *WINDOW, UNIT, OPENING_TABLE, True)
+
+
+def _dark_mean_shift(crop, anchors=ANCHORS):
+    """The mean shift of the darkness under the cheeks' median luma (the search's height and fallback place)."""
+    luma = crop.astype(float) @ [0.299, 0.587, 0.114]
+    skin = np.median(np.concatenate([luma[y0:y1, x0:x1].ravel() for x0, y0, x1, y1 in CHEEKS]))
+    D = darkness(crop, skin, OPENING["dark_low"][0], OPENING["dark_high"][0])
+    return dark_centres(D, anchors, *WINDOW, int(round(OPENING["dark_above"][0] * UNIT)))
 
 
 def test_centre_is_the_midpoint_of_the_opening_not_of_the_makeup_or_the_iris(rng):
-    crop, C = _face(EYES, iris_dx=4.0, wing=8, rng=rng)
-    ok, found = _search(crop, C)
-    assert ok
-    np.testing.assert_allclose(found[:, 0], [36.0, 84.0], atol=0.6)
-    # The height found is the mean shift's ...
-    ok, mean_shift = eye_centres(C, ANCHORS, *WINDOW)
-    np.testing.assert_allclose(found[:, 1], mean_shift[:, 1], atol=1e-9)
-    # ... whose place along the eye the wings pull outward.
+    for iris_dx, wing in ((4.0, 0), (0.0, 8)):
+        crop, C = _face(EYES, iris_dx=iris_dx, wing=wing, rng=rng)
+        ok, found = _search(crop, C)
+        assert ok
+        np.testing.assert_allclose(found[:, 0], [36.0, 84.0], atol=0.6)
+        # The height found is the darkness mean shift's ...
+        ok, mean_shift = _dark_mean_shift(crop)
+        np.testing.assert_allclose(found[:, 1], mean_shift[:, 1], atol=1e-9)
+    # ... whose place along the eye, as the contrast's, the wings pull outward.
     crop, C = _face(EYES, wing=8, rng=rng)
     ok, mean_shift = eye_centres(C, ANCHORS, *WINDOW)
+    assert ok and mean_shift[0, 0] < 35.0 and mean_shift[1, 0] > 85.0
+    ok, mean_shift = _dark_mean_shift(crop)
     assert ok and mean_shift[0, 0] < 35.0 and mean_shift[1, 0] > 85.0
     np.testing.assert_allclose(_search(crop, C)[1][:, 0], [36.0, 84.0], atol=0.6)
 
@@ -100,7 +118,7 @@ def test_an_opening_wider_than_the_other_is_cut_at_its_outer_end(rng):
 def test_closed_eyes_keep_the_mean_shift(rng):
     crop, C = _face(EYES, closed=True, rng=rng)
     ok, found = _search(crop, C)
-    ok2, mean_shift = eye_centres(C, ANCHORS, *WINDOW)
+    ok2, mean_shift = _dark_mean_shift(crop)
     assert ok and ok2
     np.testing.assert_allclose(found, mean_shift, atol=1e-9)
     # No feature intensity at all: not found, as the mean shift.

@@ -2,15 +2,15 @@
 shared.
 
 The colour tracker aligns its face frame on the eyes: the centres it finds (:func:`eye_opening_centres`: the
-height by mean shift of the feature intensity, :func:`eye_centres`; the place along the eye the midpoint of the
-eye's opening, which dark makeup, shadows and the gaze do not move) are mapped onto the profile's eye anchors,
-and the layout follows. A trained profile's anchors are learnt where :func:`eye_centres` lands on the
-performer's own labelled frames, which calibrates its bias on that face out, so with it the tracker uses the
-mean shift alone; the opening's place is for the generic profile's average anchors. Where the height found
-sits relative to the eye itself depends on the performer (lashes, lid shadows, brows close above): the generic
-anchors may put the layout a little off. When
-the landmark backend (MediaPipe) is available, the tracker asks it once, at its first acquisition, where the
-eyes are, and moves its anchors so the layout's eye centres land on them (:func:`calibrated_anchors`).
+height by mean shift of the darkness under the skin's luma, :func:`dark_centres`; the place along the eye the
+midpoint of the eye's opening, which dark makeup, shadows and the gaze do not move) are mapped onto the
+profile's eye anchors, and the layout follows. A trained profile's anchors are learnt where :func:`eye_centres`
+lands on the performer's own labelled frames, which calibrates its bias on that face out, so with it the tracker
+uses the mean shift alone; the opening's place is for the generic profile's average anchors. Where the height
+found sits relative to the eye itself depends on the performer (lashes, lid shadows, brows close above): the
+generic anchors may put the layout a little off. When the landmark backend (MediaPipe) is available, the tracker
+asks it once, at its first acquisition, where the eyes are, and moves its anchors so the layout's eye centres
+land on them (:func:`calibrated_anchors`).
 
 Conventions: crop pixels of one face crop (x right, y down); an eye centre is the mean of the points along the
 eye's upper and lower lid curves, right eye first (as in the anchors).
@@ -31,7 +31,9 @@ from facepuppet.capture.color.lids import EYES
 from facepuppet.capture.curves import bezier_points
 from facepuppet.errors import FacepuppetError
 
-__all__ = ["EYE_STEPS", "EYE_LEAST", "OPENING", "OPENING_TABLE", "eye_centres", "eye_opening_centres", "eye_centres_of",
+__all__ = ["EYE_STEPS", "EYE_LEAST", "OPENING", "OPENING_TABLE", "eye_centres", "darkness", "without_long_runs",
+           "dark_centres",
+           "eye_opening_centres", "eye_centres_of",
            "calibrated_anchors", "shared_landmarker", "landmark_curves"]
 
 log = logging.getLogger(__name__)
@@ -56,6 +58,13 @@ OPENING = {
     "half_width": (0.3, "face units", "half width of the window the opening is looked for in"),
     "agree": (0.1, "face units", "farthest the opening's place may lie from the mean shift's (on the eye's blob)"),
     "wider": (1.15, "ratio", "most one eye's opening may be wider than the other's (cut at its outer end)"),
+    "dark_low": (0.3, "skin luma", "how far under the skin's luma (a share of it) a pixel's darkness starts (the "
+                 "eye search's mean shift)"),
+    "dark_high": (0.8, "skin luma", "how far under the skin's luma a pixel is fully dark"),
+    "dark_above": (0.1, "face units", "the mean shift's reach above the eye (its reach below: the eye window's)"),
+    "dark_agree": (0.08, "face units", "farthest the darkness's place may lie from C's, each way, to be taken"),
+    "dark_level": (0.5, "darkness", "darkness from which a pixel belongs to a dark run (the runs' test)"),
+    "dark_wide": (0.5, "face units", "longest horizontal dark run the eye's darkness keeps (wider: a rim, brows)"),
 }
 
 #: Landmark backends (image mode) by model path and options, made on first need and kept for the process:
@@ -118,7 +127,8 @@ def calibrated_anchors(anchors: np.ndarray, found: np.ndarray, unit: float, *,
 
 
 _OPENING_ORDER = ("chroma", "luma", "tail", "least", "full", "outset", "steps", "above", "below", "local", "lift",
-                  "half_width", "wider", "agree")
+                  "half_width", "wider", "agree", "dark_low", "dark_high", "dark_above", "dark_agree", "dark_level",
+                  "dark_wide")
 
 
 def _opening_table() -> np.ndarray:
@@ -209,10 +219,100 @@ def _skin_reference(crop: np.ndarray, cheeks: np.ndarray) -> np.ndarray:
 
 
 @nb.njit(**KERNEL)
+def darkness(crop: np.ndarray, skin_luma: float, low: float, high: float) -> np.ndarray:
+    """(H, W) float32 in [0, 1]: how much darker than the skin each pixel of the crop (H, W, 3) uint8 RGB is, a
+    smoothstep of (skin_luma - Y) / skin_luma from ``low`` to ``high`` (luma Y as :func:`_skin_reference`'s).
+
+    Lashes, iris and pupil are darker than the skin around them whatever the complexion and the light's colour;
+    the contrast C measures a colour feature whose scale is set by the darkest, most saturated pixels of the
+    crop, which a dark complexion moves to the lash line and the hair.
+    """
+    h, w = crop.shape[:2]
+    out = np.zeros((h, w), np.float32)
+    inv = 1.0 / max((high - low) * skin_luma, 1e-6)
+    for y in range(h):
+        for x in range(w):
+            v = 0.299 * float(crop[y, x, 0]) + 0.587 * float(crop[y, x, 1]) + 0.114 * float(crop[y, x, 2])
+            t = min(max((skin_luma * (1.0 - low) - v) * inv, 0.0), 1.0)
+            out[y, x] = t * t * (3.0 - 2.0 * t)
+    return out
+
+
+@nb.njit(**KERNEL)
+def without_long_runs(D: np.ndarray, level: float, wide: int) -> np.ndarray:
+    """A copy of the darkness ``D`` (H, W) float32 with the pixels of its dark runs along a row (consecutive
+    pixels with ``D >= level``) longer than ``wide`` pixels set to 0.
+
+    The eye's dark parts (lashes, iris, pupil) make a blob about as wide as the eye; a glasses rim's top and
+    bottom and the brows make longer horizontal lines, which may not draw the eye search.
+    """
+    h, w = D.shape
+    out = D.copy()
+    for y in range(h):
+        x = 0
+        while x < w:
+            if D[y, x] < level:
+                x += 1
+                continue
+            e = x
+            while e < w and D[y, e] >= level:
+                e += 1
+            if e - x > wide:
+                out[y, x:e] = 0.0
+            x = e
+    return out
+
+
+@nb.njit(**KERNEL)
+def dark_centres(D: np.ndarray, anchors: np.ndarray, half_w: int, half_h: int, above: int):
+    """Eye centres (2, 2) in crop pixels by :data:`EYE_STEPS` mean-shift steps of D² (``D``: (H, W) darkness,
+    :func:`darkness`) around the expected ``anchors`` (>= 2, 2), right eye first, in a window ``2 half_w + 1``
+    pixels wide reaching ``above`` pixels over its centre and ``half_h`` under it.
+
+    Above the eye lie the brows, as dark as the lashes, at a face's own distance (close on some faces); under
+    it nothing as dark down to the nostrils: the window reaches less far up than down.
+
+    Returns (ok, centres): ok is False when a window holds no darkness.
+    """
+    h, w = D.shape
+    out = np.zeros((2, 2))
+    for k in range(2):
+        cx, cy = anchors[k, 0], anchors[k, 1]
+        for _ in range(EYE_STEPS):
+            x0 = int(np.round(cx)) - half_w
+            yc = int(np.round(cy))
+            xa, ya = max(x0, 0), max(yc - above, 0)
+            xb, yb = min(x0 + 2 * half_w + 1, w), min(yc + half_h + 1, h)
+            total = sx = sy = 0.0
+            for y in range(ya, yb):
+                for x in range(xa, xb):
+                    v = float(D[y, x]) ** 2
+                    total += v
+                    sx += v * x
+                    sy += v * y
+            if total <= 0.0:
+                return False, out
+            cx, cy = sx / total, sy / total
+        out[k, 0], out[k, 1] = cx, cy
+    return True, out
+
+
+@nb.njit(**KERNEL)
 def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anchors: np.ndarray, half_w: int,
-                        half_h: int, unit: float, table: np.ndarray):
-    """Eye centres (2, 2) in crop pixels: the height from :func:`eye_centres`, the position along the eye the
-    midpoint of the extent of the eye's opening, which is the midpoint of its corners.
+                        half_h: int, unit: float, table: np.ndarray, dark: bool):
+    """Eye centres (2, 2) in crop pixels: the height by mean shift of the darkness under the skin's luma
+    (:func:`dark_centres`), the position along the eye the midpoint of the extent of the eye's opening, which is
+    the midpoint of its corners.
+
+    The contrast C (a colour feature) tells whether a window holds an eye at all (:func:`eye_centres`' test);
+    where in it the eye lies is read off the luma: on a dark complexion the iris is as coloured as the skin and C
+    carries the lash line and the hair beside the face, off to the eye's upper and outer side, while lashes,
+    iris and pupil are darker than the skin on every face. The darkness's dark runs longer than ``dark_wide``
+    across (glasses rims, brows; :func:`without_long_runs`) are left out, and the darkness's place is taken only
+    within ``dark_agree`` of C's (a lens's reflection weakens the eye, the rims beside it draw the darkness).
+    Without ``dark``
+    (the acquisition: its candidate frames may sit off the face, where the darkness takes in the hair and the
+    face's sides) or without skin luma the mean shift of C places it.
 
     The opening (white of the eye, a light iris) is told from skin by its colour and from lashes, eyeliner,
     pupil and shadow by its light: a pixel belongs to it when its chroma along the cheeks' (Cr, Cb) direction
@@ -226,23 +326,36 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
     The two eyes are the same size: an opening wider than ``wider`` times the other's has taken in something
     beyond its outer corner (pale makeup or skin, the background by a turned head), and its outer end is cut
     back to that width. The centre is the extent's midpoint moved inward by ``outset`` face units. An eye
-    whose opening covers less than ``least`` face units² (closed, or in deep shadow) keeps the position of
-    :func:`eye_centres`; from ``least`` to ``full`` the position goes over linearly from that to the opening's,
-    which is kept within ``agree`` of that of :func:`eye_centres` (the mean shift holds to the dark eye; a window
+    whose opening covers less than ``least`` face units² (closed, or in deep shadow) keeps the mean shift's
+    position; from ``least`` to ``full`` the position goes over linearly from that to the opening's,
+    which is kept within ``agree`` of the mean shift's (the mean shift holds to the dark eye; a window
     off the eye may see pale skin, hair or the background beside it).
     The names are those of :data:`OPENING`, in ``table`` in :data:`OPENING_TABLE`'s order.
 
     ``C``: (H, W) float32 contrast C; ``crop``: (H, W, 3) uint8 RGB face crop; ``cheeks``: (K, 4) int64 skin
     rectangles x0, y0, x1, y1; ``anchors``: (>= 2, 2) expected centres, right eye (image left) first;
-    ``half_w``, ``half_h``: :func:`eye_centres`' window; ``unit``: crop pixels per face unit.
+    ``half_w``, ``half_h``: :func:`eye_centres`' window; ``unit``: crop pixels per face unit; ``dark``: whether
+    the darkness places the eye (a followed face).
 
     Returns (ok, centres): ok as :func:`eye_centres`'.
     """
     ok, out = eye_centres(C, anchors, half_w, half_h)
     if not ok:
         return ok, out
-    h, w = C.shape
     skin = _skin_reference(crop, cheeks)
+    # The eye's place by the darkness, in a window reaching dark_above over it (the brows lie above).
+    if dark and skin[0] > 1.0:
+        D = without_long_runs(darkness(crop, skin[0], table[14], table[15]), table[18],
+                              int(np.round(table[19] * unit)))
+        found, dark = dark_centres(D, anchors, half_w, half_h, min(int(np.round(table[16] * unit)), half_h))
+        if found:
+            # Where the two part by more than ``dark_agree``, the darkness has been drawn off the eye (a rim,
+            # the hair beside the face) and C's place stands.
+            near = table[17] * unit
+            for k in range(2):
+                if abs(dark[k, 0] - out[k, 0]) <= near and abs(dark[k, 1] - out[k, 1]) <= near:
+                    out[k, 0], out[k, 1] = dark[k, 0], dark[k, 1]
+    h, w = C.shape
     s2 = skin[1] * skin[1] + skin[2] * skin[2]
     if s2 < 1.0:
         return ok, out                      # no skin chroma to tell the opening from

@@ -287,16 +287,16 @@ class ColorTracker:
             self._cheek_boxes, self._eye_boxes)
         return it.C
 
-    def eye_centres(self, C: np.ndarray, anchors: np.ndarray | None = None) -> np.ndarray | None:
+    def eye_centres(self, C: np.ndarray, anchors: np.ndarray | None = None, *, dark: bool = False) -> np.ndarray | None:
         """Eye centres (2, 2) in crop pixels of the contrast C (H, W) of the crop last transformed
         (:meth:`intensity`), near ``anchors`` (>= 2, 2) (default the expected anchors), or None: by the eye's
-        opening (:func:`~facepuppet.capture.color.eye_anchors.eye_opening_centres`) with the generic profile, by
-        the mean shift its anchors were learnt with (:func:`~facepuppet.capture.color.eye_anchors.eye_centres`)
-        with a trained one."""
+        opening (:func:`~facepuppet.capture.color.eye_anchors.eye_opening_centres`, its height by the darkness
+        with ``dark``) with the generic profile, by the mean shift its anchors were learnt with
+        (:func:`~facepuppet.capture.color.eye_anchors.eye_centres`) with a trained one."""
         anchors = self._place.anchors_px if anchors is None else np.asarray(anchors, dtype=float)
         if self._eye_opening:
             found, eyes = eye_opening_centres(C, self._intensity.crop, self._cheek_boxes, anchors,
-                                              *self._eye_window, float(self.config.measure.px), OPENING_TABLE)
+                                              *self._eye_window, float(self.config.measure.px), OPENING_TABLE, dark)
         else:
             found, eyes = eye_centres(C, anchors, *self._eye_window)
         return eyes if found else None
@@ -328,7 +328,7 @@ class ColorTracker:
         crop = without_glare(crop, self._cheek_boxes, self._eye_boxes, px)      # a lens's reflection: unknown
         skin = self._follow.skin = self._skin_ok(crop)
         C = self.intensity(crop)
-        eyes = self.eye_centres(C)
+        eyes = self.eye_centres(C, dark=follow)
         # The eyes' correction of the followed frame (a similarity in crop pixels, as a, b, tx, ty), smoothed
         # over frames: the alignment on the whole face is steady, the eye search noisier but unbiased.
         last_corr = correction if correction is not None else self._follow.correction
