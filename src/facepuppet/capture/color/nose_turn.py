@@ -28,11 +28,18 @@ head's +x, the performer's left: the image's right).
 
 from __future__ import annotations
 
+import bisect
+import math
+
 import cv2
+import numba as nb
 import numpy as np
 
+from facepuppet._util.jit import KERNEL
+
 __all__ = ["NOSE_REGION", "SAMPLES_PER_UNIT", "DETAIL_SIGMA", "MIRROR_HALF", "SEARCH", "NOSE_DEPTH",
-           "NEUTRAL_FRAMES", "MIN_MATCH", "LOOK_SHARE", "nose_axis", "face_to_image", "NoseTurn"]
+           "NEUTRAL_FRAMES", "MEASURE_EVERY", "MIN_MATCH", "LOOK_SHARE", "nose_axis", "mirror_scores",
+           "face_to_image", "NoseTurn"]
 
 # Constants                      unit                what it is
 NOSE_REGION = (-0.6, 0.35, 0.6, 0.88)  # face units  (x0, y0, x1, y1): the nose from its middle to its base
@@ -45,6 +52,8 @@ SEARCH = 0.2                     # face units        largest distance of the axi
 #: the generic face) gives the same turn.
 NOSE_DEPTH = 0.9
 NEUTRAL_FRAMES = 300             # frames            the running median of the neutral axis (10 s at 30 /s)
+MEASURE_EVERY = 2               # frames            the nose is measured on every this many frames (the last
+#                                                    reading held between: the yaw is filtered after)
 MIN_MATCH = 0.2                  # correlation       least mirror match of the best axis for a reading
 #: Share (yaw, pitch) of the direction of the line of sight through the head (:func:`~.head_turn.ray_angles`)
 #: added to the yaw measured against it (:func:`~.head_turn.turn_angles`): the trained model's middle share
@@ -108,23 +117,9 @@ def nose_axis(rgb: np.ndarray, M: np.ndarray) -> tuple[float, float] | None:
     centre = int(round(-x0 * n - 0.5))                            # the sample column at x = 0
     reach = int(round(SEARCH * n))
     cs = np.arange(max(centre - reach, half), min(centre + reach, size[0] - half - 1) + 1)
-    # For candidate column c: the `half` columns left of it, mirrored, against the `half` right of it, over
-    # all rows. With G the columns' Gram matrix (G[i, j] = sum over rows of detail[:, i] * detail[:, j]), the
-    # cross products are G[c - u, c + u] summed over u = 1..half, the sums of squares G's diagonal summed over
-    # each side, and the sides' sums from running sums of the columns.
-    d64 = detail.astype(np.float64)
-    G = d64.T @ d64
-    u = np.arange(1, half + 1)
-    cross = G[cs[:, None] - u, cs[:, None] + u].sum(axis=1)
-    run = np.concatenate([[0.0], np.cumsum(d64.sum(axis=0))])
-    run2 = np.concatenate([[0.0], np.cumsum(np.diag(G))])
-    count = half * detail.shape[0]
-    sl, sr = run[cs] - run[cs - half], run[cs + 1 + half] - run[cs + 1]
-    ql, qr = run2[cs] - run2[cs - half], run2[cs + 1 + half] - run2[cs + 1]
-    var_l, var_r = ql - sl * sl / count, qr - sr * sr / count
-    if not np.all((var_l > 0) & (var_r > 0)):
+    score = mirror_scores(detail, cs, half)
+    if score.size == 0:
         return None
-    score = (cross - sl * sr / count) / np.sqrt(var_l * var_r)
     j = int(np.argmax(score))
     off = 0.0
     if 0 < j < len(score) - 1:
@@ -134,6 +129,34 @@ def nose_axis(rgb: np.ndarray, M: np.ndarray) -> tuple[float, float] | None:
     return x0 + (float(cs[j]) + off + 0.5) / n, float(score[j])
 
 
+@nb.njit(**KERNEL)
+def mirror_scores(detail: np.ndarray, cs: np.ndarray, half: int) -> np.ndarray:
+    """Normalised correlation of the ``half`` columns left of each candidate column ``cs[k]``, mirrored, with the
+    ``half`` right of it, over all rows of ``detail`` (R, W) float32; an empty array when a side has no
+    variance at some candidate (``half <= cs[k] < W - half`` for each k)."""
+    rows = detail.shape[0]
+    count = half * rows
+    out = np.empty(len(cs))
+    for k in range(len(cs)):
+        c = cs[k]
+        cross = sl = sr = ql = qr = 0.0
+        for r in range(rows):
+            for u in range(1, half + 1):
+                a = np.float64(detail[r, c - u])
+                b = np.float64(detail[r, c + u])
+                cross += a * b
+                sl += a
+                sr += b
+                ql += a * a
+                qr += b * b
+        var_l = ql - sl * sl / count
+        var_r = qr - sr * sr / count
+        if not (var_l > 0.0 and var_r > 0.0):
+            return np.empty(0)
+        out[k] = (cross - sl * sr / count) / np.sqrt(var_l * var_r)
+    return out
+
+
 class NoseTurn:
     """The yaw (radians) of successive frames of one take (the module notes); the running neutral is the state.
 
@@ -141,28 +164,39 @@ class NoseTurn:
     ----------
     frames : int
         Measured frames the neutral's running median spans.
+    every : int
+        The nose is measured on every ``every``-th call, starting with the first.
     """
 
-    def __init__(self, frames: int = NEUTRAL_FRAMES):
+    def __init__(self, frames: int = NEUTRAL_FRAMES, every: int = MEASURE_EVERY):
+        self._every, self._calls = max(int(every), 1), 0
         self._seen = np.zeros(int(frames))        # ring buffer of the last axes
+        self._sorted: list[float] = []            # the same axes in ascending order (the median's)
         self._count = 0
         self._last = 0.0                          # the last yaw read, radians
 
     def reset(self) -> None:
         """Forget the neutral and the last reading (a new take, or a new face)."""
-        self._count, self._last = 0, 0.0
+        self._count, self._last, self._sorted, self._calls = 0, 0.0, [], 0
 
     def __call__(self, rgb: np.ndarray, M: np.ndarray) -> float:
         """The yaw (radians) of the frame ``rgb`` (H, W, 3) uint8 whose face frame is ``M`` (face units -> image
         pixels, :func:`face_to_image`); the last one read (at first zero) when the nose's axis is not found
-        (no detail, or a mirror match under :data:`MIN_MATCH`)."""
+        (no detail, or a mirror match under :data:`MIN_MATCH`) or the call is not one that measures."""
+        self._calls += 1
+        if (self._calls - 1) % self._every:
+            return self._last
         found = nose_axis(rgb, M)
         if found is None or found[1] < MIN_MATCH:
             return self._last
         x = found[0]
-        n = len(self._seen)
+        n, ring = len(self._seen), self._sorted
+        if self._count >= n:                      # the oldest axis leaves the window
+            del ring[bisect.bisect_left(ring, float(self._seen[self._count % n]))]
         self._seen[self._count % n] = x
+        bisect.insort(ring, x)
         self._count += 1
-        d = x - float(np.median(self._seen[:min(self._count, n)]))
-        self._last = float(np.arcsin(np.clip(d / NOSE_DEPTH, -1.0, 1.0)))
+        m = len(ring)
+        neutral = ring[m // 2] if m % 2 else 0.5 * (ring[m // 2 - 1] + ring[m // 2])
+        self._last = math.asin(min(max((x - neutral) / NOSE_DEPTH, -1.0), 1.0))
         return self._last

@@ -40,7 +40,7 @@ from facepuppet.capture.color.head_turn import RAY_SHARE, apply_turn_model, turn
 from facepuppet.capture.color.jobs import wait_pending
 from facepuppet.capture.color.likeness import FaceTemplate
 from facepuppet.capture.color.measure import Measurement, Placement
-from facepuppet.capture.color.nose_turn import LOOK_SHARE, NoseTurn, face_to_image
+from facepuppet.capture.color.nose_turn import LOOK_SHARE, NoseTurn, face_to_image, nose_axis
 from facepuppet.capture.color.outliner import Outliner
 from facepuppet.capture.color.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
 from facepuppet.capture.color.refind import LostFace
@@ -265,6 +265,7 @@ class ColorTracker:
         C = self.intensity(crop)
         self.eye_centres(C)
         self._template.score(C, np.eye(2, 3))
+        nose_axis(crop, np.array([[w / 4.0, 0.0, w / 2.0], [0.0, w / 4.0, h / 2.0]]))
         self._skin_ok(crop)
         self._boxes_now()
         self._outliner.warmup_lids(curves, crop)
