@@ -45,12 +45,9 @@ def along(ctrl: np.ndarray, d: int) -> np.ndarray:
 
 
 @nb.njit(**INNER)
-def select_kth(a: np.ndarray, k: int) -> np.ndarray:
-    """A copy of the 1-D array ``a`` arranged so that ``d[k]`` is its k-th smallest value, ``d[:k]`` the k
-    smallest and ``d[k + 1:]`` the rest (Hoare's selection; what ``np.partition(a, k)`` gives, written out
-    because numba's compiles for seconds, each type again)."""
-    d = a.copy()
-    lo, hi = 0, len(d) - 1
+def _select_range(d: np.ndarray, lo: int, hi: int, k: int) -> None:
+    """Arrange ``d[lo:hi + 1]`` in place so that ``d[k]`` is its value of rank k (as :func:`select_kth` does for a
+    whole array: smaller or equal values before it, greater or equal after it)."""
     while lo < hi:
         p = d[(lo + hi) // 2]
         i, j = lo, hi
@@ -69,6 +66,15 @@ def select_kth(a: np.ndarray, k: int) -> np.ndarray:
             lo = i
         else:
             break
+
+
+@nb.njit(**INNER)
+def select_kth(a: np.ndarray, k: int) -> np.ndarray:
+    """A copy of the 1-D array ``a`` arranged so that ``d[k]`` is its k-th smallest value, ``d[:k]`` the k
+    smallest and ``d[k + 1:]`` the rest (Hoare's selection; what ``np.partition(a, k)`` gives, written out
+    because numba's compiles for seconds, each type again)."""
+    d = a.copy()
+    _select_range(d, 0, len(d) - 1, k)
     return d
 
 
@@ -96,30 +102,6 @@ def quantile(a: np.ndarray, q: float) -> float:
     hi = d[j]
     lo = d[:j].max() if j > i else hi
     return lo + (pos - i) * (hi - lo)
-
-
-@nb.njit(**INNER)
-def _select_range(d: np.ndarray, lo: int, hi: int, k: int) -> None:
-    """Arrange ``d[lo:hi + 1]`` in place so that ``d[k]`` is its value of rank k (as :func:`select_kth` does for a
-    whole array: smaller or equal values before it, greater or equal after it)."""
-    while lo < hi:
-        p = d[(lo + hi) // 2]
-        i, j = lo, hi
-        while i <= j:
-            while d[i] < p:
-                i += 1
-            while d[j] > p:
-                j -= 1
-            if i <= j:
-                d[i], d[j] = d[j], d[i]
-                i += 1
-                j -= 1
-        if k <= j:
-            hi = j
-        elif k >= i:
-            lo = i
-        else:
-            break
 
 
 @nb.njit(**INNER)
