@@ -58,7 +58,7 @@ def test_face_to_image_round_trips_the_crop():
 
 def test_yaw_is_read_against_the_running_neutral():
     """A nose that stays put reads no turn; one moved by d face units from that neutral reads asin(d / k)."""
-    turn = NoseTurn(frames=31)
+    turn = NoseTurn(frames=31, every=1)
     M = _frame_map()
     for _ in range(20):
         assert abs(turn(_nose(0.02), M)) < 1e-3
@@ -119,3 +119,21 @@ def test_the_drawn_performer_turning_its_head_reads_its_yaw():
     assert np.corrcoef(got[:, 2], true[:, 2])[0, 1] > 0.9
     assert np.abs(got[:, 2] - true[:, 2]).max() < 3.0
 
+
+
+def test_calls_that_do_not_measure_are_counted_and_hold_the_last_reading():
+    """With ``every=3`` the first of each three calls measures; :meth:`NoseTurn.skip` stands for a call that
+    does not (the tracker skips building the frame's map), so measuring and skipping keep the same rhythm."""
+    turn, M = NoseTurn(frames=31, every=3), _frame_map()
+    pattern = []
+    for _ in range(9):
+        pattern.append(turn.due)
+        if turn.due:
+            turn(_nose(0.02), M)
+        else:
+            turn.skip()
+    assert pattern == [True, False, False] * 3
+    d = 0.08
+    got = turn(_nose(0.02 + d), M)                 # the tenth call measures
+    assert abs(got - np.arcsin(d / NOSE_DEPTH)) < 0.015, got
+    assert not turn.due and turn.skip() == got and turn.skip() == got and turn.due

@@ -52,7 +52,7 @@ SEARCH = 0.2                     # face units        largest distance of the axi
 #: the generic face) gives the same turn.
 NOSE_DEPTH = 0.9
 NEUTRAL_FRAMES = 300             # frames            the running median of the neutral axis (10 s at 30 /s)
-MEASURE_EVERY = 2               # frames            the nose is measured on every this many frames (the last
+MEASURE_EVERY = 3               # frames            the nose is measured on every this many frames (the last
 #                                                    reading held between: the yaw is filtered after)
 MIN_MATCH = 0.2                  # correlation       least mirror match of the best axis for a reading
 #: Share (yaw, pitch) of the direction of the line of sight through the head (:func:`~.head_turn.ray_angles`)
@@ -178,6 +178,16 @@ class NoseTurn:
     def reset(self) -> None:
         """Forget the neutral and the last reading (a new take, or a new face)."""
         self._count, self._last, self._sorted, self._calls = 0, 0.0, [], 0
+
+    @property
+    def due(self) -> bool:
+        """Whether the next call measures the nose (else it returns the last reading without looking)."""
+        return self._calls % self._every == 0
+
+    def skip(self) -> float:
+        """A call that does not measure (:attr:`due` False): counts it and returns the last reading, radians."""
+        self._calls += 1
+        return self._last
 
     def __call__(self, rgb: np.ndarray, M: np.ndarray) -> float:
         """The yaw (radians) of the frame ``rgb`` (H, W, 3) uint8 whose face frame is ``M`` (face units -> image

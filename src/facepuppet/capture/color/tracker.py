@@ -376,13 +376,15 @@ class ColorTracker:
         if self.seen is None:
             return None
         crop, A, placed = self.seen
-        (c0, k0), (c1, k1) = _PLACED_PAIR
-        S = similarity_of_pairs(self._layout_px[[c0, c1], [k0, k1]], placed[[c0, c1], [k0, k1]])
-        px = self.config.measure.px
-        if self.profile.head:
-            raw = apply_turn_model(self.profile.head, crop, S, px)
+        nose = self._nose_turn
+        if self.profile.head or nose.due:
+            (c0, k0), (c1, k1) = _PLACED_PAIR
+            S = similarity_of_pairs(self._layout_px[[c0, c1], [k0, k1]], placed[[c0, c1], [k0, k1]])
+            px = self.config.measure.px
+            raw = (apply_turn_model(self.profile.head, crop, S, px) if self.profile.head
+                   else np.array([nose(rgb, face_to_image(A, S, px, CROP_EXTENT[:2])), 0.0]))
         else:
-            raw = np.array([self._nose_turn(rgb, face_to_image(A, S, px, CROP_EXTENT[:2])), 0.0])
+            raw = np.array([nose.skip(), 0.0])
         fol = self._follow
         if fol.turn_ms is None:
             self._turn_filter.restart(raw)
