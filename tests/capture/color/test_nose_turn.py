@@ -120,7 +120,6 @@ def test_the_drawn_performer_turning_its_head_reads_its_yaw():
     assert np.abs(got[:, 2] - true[:, 2]).max() < 3.0
 
 
-
 def test_calls_that_do_not_measure_are_counted_and_hold_the_last_reading():
     """With ``every=3`` the first of each three calls measures; :meth:`NoseTurn.skip` stands for a call that
     does not (the tracker skips building the frame's map), so measuring and skipping keep the same rhythm."""

@@ -193,9 +193,9 @@ class NoseTurn:
         """The yaw (radians) of the frame ``rgb`` (H, W, 3) uint8 whose face frame is ``M`` (face units -> image
         pixels, :func:`face_to_image`); the last one read (at first zero) when the nose's axis is not found
         (no detail, or a mirror match under :data:`MIN_MATCH`) or the call is not one that measures."""
+        if not self.due:
+            return self.skip()
         self._calls += 1
-        if (self._calls - 1) % self._every:
-            return self._last
         found = nose_axis(rgb, M)
         if found is None or found[1] < MIN_MATCH:
             return self._last
