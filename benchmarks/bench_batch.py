@@ -59,6 +59,7 @@ import dataclasses
 import importlib.util
 import os
 import resource
+import secrets
 import shutil
 import signal
 import socket
@@ -166,8 +167,12 @@ class Cluster:
         cmd = [str(ray_cli) if ray_cli.exists() else "ray", "start", "--head", "--block", "--num-cpus", str(cpus),
                "--node-ip-address", "127.0.0.1", "--port", str(self.port), "--include-dashboard=false",
                "--disable-usage-stats", "--dashboard-agent-listen-port", str(free_port())]
-        self.proc = subprocess.Popen(cmd, env={**env, "RAY_USAGE_STATS_ENABLED": "0"}, stdout=subprocess.PIPE,
-                                     stderr=subprocess.STDOUT, text=True, start_new_session=True)
+        #: What a driver needs in its environment: Ray's token authentication, with a token made for this cluster
+        #: (the cluster is started with the same; a Ray without token authentication ignores both variables).
+        self.client_env = {"RAY_AUTH_MODE": "token", "RAY_AUTH_TOKEN": secrets.token_hex(16)}
+        self.proc = subprocess.Popen(cmd, env={**env, **self.client_env, "RAY_USAGE_STATS_ENABLED": "0"},
+                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                                     start_new_session=True)
         started = threading.Event()
         self.lines: list[str] = []
 
@@ -182,9 +187,6 @@ class Cluster:
             self.stop()
             raise SystemExit("ray start did not start a cluster:\n" + "".join(self.lines[-30:]))
         self.address = f"127.0.0.1:{self.port}"
-        #: What a driver needs in its environment: Ray's token authentication, on by default for a cluster that
-        #: ``ray start`` made, with the token ``ray start`` saved where Ray looks for it.
-        self.client_env = {"RAY_AUTH_MODE": "token"}
         self.env = {**env, **self.client_env}
 
     def first_driver(self) -> float:

@@ -1,10 +1,13 @@
 """The Ray engine's driver against a stand-in for Ray (no Ray needed): actors that run their calls in order, as
 Ray's do. Each clip gets exactly one result; an actor never holds more than two clips; the last clips go to the
 actor that is free; an actor that dies under a clip gives that clip a failed row, and the clip queued behind it
-runs on another actor, once. A runtime the engine starts itself runs its workers at niceness 0."""
+runs on another actor, once. A runtime the engine starts itself runs its workers at niceness 0. A batch connects and
+asks for its actors before it hashes its clips, one actor at most per clip to run, and connects to nothing when
+its report lists every clip done."""
 
 from __future__ import annotations
 
+import importlib.machinery
 import os
 import sys
 import types
@@ -12,6 +15,8 @@ import types
 import pytest
 
 from facepuppet.batch import ray_engine
+from facepuppet.batch import run as run_module
+from facepuppet.batch.jobs import Job
 from facepuppet.batch.worker import ClipResult, ClipTask
 from facepuppet.pipeline.animate import AnimateConfig
 
@@ -172,3 +177,119 @@ def test_an_own_runtime_starts_its_workers_at_niceness_0(monkeypatch, address, u
     assert ray.inits == [("local" if address is None else address, seen)]
     assert os.environ.get("RAY_worker_niceness") == user         # the process's environment as it was
     assert ray_engine.RAY_WORKER_NICENESS == 0
+
+
+class FakeRayLogged(FakeRayToStart):
+    """A Ray not started yet that notes, in ``events``, its start, each actor asked for, each ended, its end."""
+
+    __spec__ = importlib.machinery.ModuleSpec("ray", None)     # what importlib.util.find_spec reads
+
+    def __init__(self, cpus: int, events: list):
+        super().__init__(cpus)
+        self.events = events
+
+    def init(self, address=None, **options):
+        super().init(address, **options)
+        self.events.append("init")
+
+    def remote(self, **options):
+        wrapped = super().remote(**options)
+
+        def wrap(cls):
+            start = wrapped(cls).remote
+
+            def logged(*args):
+                self.events.append("actor")
+                return start(*args)
+            return types.SimpleNamespace(remote=logged)
+        return wrap
+
+    def kill(self, actor):
+        super().kill(actor)
+        self.events.append("kill")
+
+    def shutdown(self):
+        self.events.append("shutdown")
+
+
+def batch(monkeypatch, tmp_path, clips: int, events: list, *, hashed=None):
+    """run_batch on ``clips`` jobs with the Ray engine against :class:`FakeRayLogged`; each clip's hashing noted
+    in ``events`` (or done by ``hashed(path)``)."""
+    ray = FakeRayLogged(2, events)
+    monkeypatch.setitem(sys.modules, "ray", ray)
+    monkeypatch.setattr(ray_engine, "rig_arrays", lambda path: "arrays")
+    monkeypatch.setattr(run_module, "check_rigs", lambda jobs: {"rig.npz": "r"})
+
+    def sha(path):
+        events.append("hash")
+        return hashed(path) if hashed else "c" + os.path.basename(path)
+    monkeypatch.setattr(run_module, "file_sha256", sha)
+    jobs = []
+    for k in range(clips):
+        (tmp_path / f"c{k}.mp4").write_bytes(b"")
+        jobs.append(Job(clip=str(tmp_path / f"c{k}.mp4"), rig="rig.npz", name=f"c{k}", source=f"argument {k + 1}"))
+    summary = run_module.run_batch(jobs, tmp_path / "out", run_module.BatchConfig(engine="ray", address="10.0.0.1:6379",
+                                                                                  progress=False))
+    return ray, summary
+
+
+def test_the_batch_asks_for_its_actors_before_it_hashes_its_clips(monkeypatch, tmp_path):
+    events: list = []
+    ray, summary = batch(monkeypatch, tmp_path, 3, events)
+    assert [r.status for r in summary.rows] == ["done"] * 3
+    assert events[:3] == ["init", "actor", "actor"]              # connected, both actors asked for, then...
+    assert events[3:6] == ["hash"] * 3                           # ...the clips hashed
+    assert events[-3:] == ["kill", "kill", "shutdown"]           # the actors ended, the connection closed
+    assert sorted(i for i, _ in ray.ran) == [0, 1, 2]
+
+
+def test_one_clip_to_run_keeps_one_actor(monkeypatch, tmp_path):
+    events: list = []
+    ray, summary = batch(monkeypatch, tmp_path, 1, events)
+    assert [r.status for r in summary.rows] == ["done"]
+    assert events.count("actor") == 1 and len(ray.actors) == 1
+
+
+def test_more_actors_than_clips_to_run_end_before_the_clips(monkeypatch, tmp_path):
+    events: list = []
+    batch(monkeypatch, tmp_path, 2, events)                      # both clips done (no outputs: the fake writes none)
+    out = tmp_path / "out"
+    (out / "c0.glb").write_bytes(b"glb")                         # c0's output there: only c1 is to run again
+    events.clear()
+    ray, summary = batch(monkeypatch, tmp_path, 2, events)
+    assert [r.status for r in summary.rows] == ["skipped", "done"]
+    assert events.count("actor") == 1                            # one clip looks undone: one actor asked for
+
+
+def test_a_rerun_with_every_clip_done_connects_to_no_cluster(monkeypatch, tmp_path):
+    events: list = []
+    batch(monkeypatch, tmp_path, 2, events)
+    for k in range(2):
+        (tmp_path / "out" / f"c{k}.glb").write_bytes(b"glb")
+    events.clear()
+    ray, summary = batch(monkeypatch, tmp_path, 2, events)
+    assert [r.status for r in summary.rows] == ["skipped", "skipped"]
+    assert events == ["hash", "hash"] and ray.inits == []
+
+
+def test_a_clip_changed_since_the_report_still_runs_when_every_clip_looked_done(monkeypatch, tmp_path):
+    events: list = []
+    batch(monkeypatch, tmp_path, 2, events)
+    for k in range(2):
+        (tmp_path / "out" / f"c{k}.glb").write_bytes(b"glb")
+    events.clear()
+    ray, summary = batch(monkeypatch, tmp_path, 2, events, hashed=lambda path: "changed")
+    assert [r.status for r in summary.rows] == ["done", "done"]
+    assert events[:2] == ["hash", "hash"] and events[2] == "init"   # the engine opened its own session
+    assert events[-1] == "shutdown"
+
+
+def test_a_stop_while_the_clips_are_hashed_ends_the_actors(monkeypatch, tmp_path):
+    events: list = []
+
+    def stopped(path):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        batch(monkeypatch, tmp_path, 2, events, hashed=stopped)
+    assert events == ["init", "actor", "actor", "hash", "kill", "kill", "shutdown"]

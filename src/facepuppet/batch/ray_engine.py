@@ -13,6 +13,10 @@ seconds) and last the clip's :class:`~facepuppet.batch.worker.ClipResult`. The d
 generators at once (``ray.wait``), so progress needs no actor of its own. When an actor's result comes in, the
 next clip (longest first, as the batch orders them) goes to that actor; an actor that died under a clip gives
 that clip a failed row and is replaced.
+
+The batch opens its :class:`RaySession` (Ray connected, the actors asked for) before it hashes its clips, so the
+actors' start-up (a worker process, imports, compiled kernels, tracker, for each) runs on the cluster while the
+driver reads the clips; the clips go to the actors once the batch knows which to run.
 """
 
 from __future__ import annotations
@@ -38,8 +42,8 @@ from facepuppet.batch.worker import (
 )
 from facepuppet.errors import FacepuppetError
 
-__all__ = ["run_ray", "ClipWorker", "RAY_MISSING", "RAY_TASK_CPUS", "RAY_INIT", "RAY_WORKER_NICENESS", "POLL_S",
-           "STEPS_WAIT_S", "QUEUED_PER_ACTOR"]
+__all__ = ["run_ray", "RaySession", "ClipWorker", "RAY_MISSING", "RAY_TASK_CPUS", "RAY_INIT", "RAY_WORKER_NICENESS",
+           "POLL_S", "STEPS_WAIT_S", "QUEUED_PER_ACTOR"]
 
 log = logging.getLogger(__name__)
 
@@ -185,51 +189,117 @@ def _slots(ray, workers: int | None, tasks: int) -> int:
     return max(1, min(int(workers or cpus), cpus, tasks))
 
 
-def run_ray(tasks: list[ClipTask], *, workers: int | None, address: str | None, on_progress, on_result) -> None:
-    """Run the tasks on Ray actors (module notes), in the order given; each rig put once into the object store.
+class RaySession:
+    """Ray connected (or started) and a batch's actors asked for: opened by the batch before it plans its clips,
+    so that the actors start (processes, imports, compiled kernels, tracker: seconds) while the driver hashes the
+    clips and reads their frame counts, then given the clips to run (:meth:`run`) and closed.
 
     Uses the Ray runtime already started in this process if there is one; else connects to ``address`` (an
     existing cluster: ``auto``, ``HOST:PORT`` of its head, ``ray://HOST:10001``) or starts a local runtime of
-    ``workers`` CPUs (:data:`RAY_INIT`), and shuts down what it started at the end. ``workers`` is the number of
-    actors (None, or more than the cluster has CPUs: one per CPU). Clips and outputs must be on paths every node
-    sees. Where the time went is logged at INFO level (:mod:`facepuppet.batch.timeline`).
+    ``workers`` CPUs (:data:`RAY_INIT`); :meth:`close` ends the actors and shuts down what it started.
+
+    Parameters
+    ----------
+    workers : int or None
+        Actors (None, or more than the cluster has CPUs: one per CPU).
+    address : str or None
+        The cluster; None starts a local runtime.
+    most : int
+        At most this many actors: the clips that may need running.
+    warm : TrackerOptions or None
+        The batch's tracker options, which the actors load at once (:class:`ClipWorker`).
     """
-    timeline = Timeline("ray")
-    try:
-        import ray
-    except ImportError:
-        raise FacepuppetError(RAY_MISSING) from None
-    if not tasks:
+
+    def __init__(self, *, workers: int | None, address: str | None, most: int, warm=None) -> None:
+        self.timeline = Timeline("ray")
+        try:
+            import ray
+        except ImportError:
+            raise FacepuppetError(RAY_MISSING) from None
+        self.ray, self.address, self.warm = ray, address, warm
+        self.timeline.mark("ray imported")
+        self.started = False
+        self.actors: list = []
+        if not ray.is_initialized():
+            if address:
+                ray.init(address=address, logging_level=RAY_INIT["logging_level"])
+                self.timeline.mark(f"connected to the cluster at {address}")
+            else:
+                with _worker_niceness():
+                    ray.init(address="local", num_cpus=max(1, int(workers or os.cpu_count() or 1)), **RAY_INIT)
+                self.timeline.mark("own Ray runtime started")
+            self.started = True
+        try:
+            self.remote = ray.remote(num_cpus=RAY_TASK_CPUS)(ClipWorker)
+            for _ in range(_slots(ray, workers, most)):
+                self.start_actor()
+        except BaseException:
+            self.close()
+            raise
+        self.timeline.mark(f"{len(self.actors)} actors asked for")
+
+    def start_actor(self):
+        """A new actor (:class:`ClipWorker`), warming up at once; kept in :attr:`actors`."""
+        actor = self.remote.remote(RAY_TASK_CPUS, self.warm)
+        self.actors.append(actor)
+        return actor
+
+    def end_actor(self, actor) -> None:
+        """End ``actor`` (gone already or not) and forget it."""
+        if actor in self.actors:
+            self.actors.remove(actor)
+        try:
+            self.ray.kill(actor)
+        except Exception:                       # noqa: BLE001, S110 - already gone
+            pass
+
+    def run(self, tasks: list[ClipTask], on_progress, on_result) -> None:
+        """Run the tasks on the actors (module notes), in the order given; each rig put once into the object
+        store. Actors beyond one per task end first."""
+        for actor in self.actors[len(tasks):]:
+            self.end_actor(actor)
+        if tasks:
+            _drive(self, tasks, on_progress, on_result)
+
+    def close(self) -> None:
+        """End the actors, shut down the runtime or connection this session started, log the timeline."""
+        for actor in list(self.actors):
+            self.end_actor(actor)
+        self.timeline.mark("actors ended")
+        if self.started:
+            self.started = False
+            self.ray.shutdown()
+            self.timeline.mark("Ray shut down" if self.address else "own Ray runtime shut down")
+        self.timeline.log()
+
+
+def run_ray(tasks: list[ClipTask], *, workers: int | None, address: str | None, on_progress, on_result,
+            session: RaySession | None = None) -> None:
+    """Run the tasks on Ray actors (module notes), in the order given; each rig put once into the object store.
+
+    ``session`` is a :class:`RaySession` the caller opened (and closes); without one, a session for these tasks
+    is opened and closed here (``workers`` and ``address`` as :class:`RaySession` takes them). Clips and outputs
+    must be on paths every node sees. Where the time went is logged at INFO level
+    (:mod:`facepuppet.batch.timeline`).
+    """
+    if session is not None:
+        session.run(tasks, on_progress, on_result)
         return
-    timeline.mark("ray imported")
-    started = False
-    if not ray.is_initialized():
-        if address:
-            ray.init(address=address, logging_level=RAY_INIT["logging_level"])
-            timeline.mark(f"connected to the cluster at {address}")
-        else:
-            with _worker_niceness():
-                ray.init(address="local", num_cpus=max(1, int(workers or os.cpu_count() or 1)), **RAY_INIT)
-            timeline.mark("own Ray runtime started")
-        started = True
-    actors: list = []
+    if not tasks:
+        try:
+            import ray  # noqa: F401 - the engine's dependency, asked for even with nothing to run
+        except ImportError:
+            raise FacepuppetError(RAY_MISSING) from None
+        return
+    session = RaySession(workers=workers, address=address, most=len(tasks), warm=tasks[0].config.tracker)
     try:
-        _drive(ray, tasks, _slots(ray, workers, len(tasks)), actors, on_progress, on_result, timeline)
+        session.run(tasks, on_progress, on_result)
     finally:
-        for actor in actors:
-            try:
-                ray.kill(actor)
-            except Exception:                   # noqa: BLE001, S110 - already gone
-                pass
-        timeline.mark("actors ended")
-        if started:
-            ray.shutdown()
-            timeline.mark("Ray shut down" if address else "own Ray runtime shut down")
-        timeline.log()
+        session.close()
 
 
-def _drive(ray, tasks, slots: int, actors: list, on_progress, on_result, timeline: Timeline) -> None:
-    """Feed the tasks to ``slots`` actors (appended to ``actors``) and hand back their progress and results.
+def _drive(session: RaySession, tasks, on_progress, on_result) -> None:
+    """Feed the tasks to the session's actors and hand back their progress and results.
 
     Each actor holds up to :data:`QUEUED_PER_ACTOR` clips: the one it works on and the next, which Ray runs as
     soon as the first returns (an actor runs its calls in order), so no actor waits for the driver between two
@@ -238,19 +308,8 @@ def _drive(ray, tasks, slots: int, actors: list, on_progress, on_result, timelin
     soon as one has something (only an actor's first generator yields). When an actor dies, the clip it was on
     gets a failed row and its queued clips go back to the head of the line, for the actor that replaces it.
     """
-    remote = ray.remote(num_cpus=RAY_TASK_CPUS)(ClipWorker)
-    warm = tasks[0].config.tracker
-
-    def start() -> object:
-        actor = remote.remote(RAY_TASK_CPUS, warm)
-        actors.append(actor)
-        queues[actor] = []
-        return actor
-
-    queues: dict = {}                           # actor -> [(generator, task)], the clip it works on first
-    for _ in range(slots):                      # the actors start (processes, imports, kernels) while the rigs go out
-        start()
-    timeline.mark(f"{slots} actors asked for")
+    ray, timeline = session.ray, session.timeline
+    queues: dict = {actor: [] for actor in session.actors}  # actor -> [(generator, task)], the clip it is on first
     rigs: dict = {}
     for t in tasks:
         if t.rig_sha256 not in rigs:
@@ -268,7 +327,7 @@ def _drive(ray, tasks, slots: int, actors: list, on_progress, on_result, timelin
             running[ref] = actor
 
     for most in range(1, QUEUED_PER_ACTOR + 1):  # round by round: the longest clips go to different actors
-        for actor in list(actors):
+        for actor in list(queues):
             give(actor, most)
     while running:
         ready, _ = ray.wait(list(running), num_returns=1, timeout=POLL_S)
@@ -288,13 +347,10 @@ def _drive(ray, tasks, slots: int, actors: list, on_progress, on_result, timelin
                     del running[gone]
                     todo.append(waiting)        # never started: next in line, in their order
                 del queue[1:]
-                actors.remove(actor)
-                try:
-                    ray.kill(actor)
-                except Exception:               # noqa: BLE001, S110 - already gone
-                    pass
+                session.end_actor(actor)
                 del queues[actor]
-                actor = start()
+                actor = session.start_actor()
+                queues[actor] = []              # ``queue`` is the dead actor's: its failed clip left to pop
             if isinstance(item, ClipResult):
                 del running[queue.pop(0)[0]]
                 give(actor)                     # first: the actor queues its next clip while the report is written
@@ -304,7 +360,7 @@ def _drive(ray, tasks, slots: int, actors: list, on_progress, on_result, timelin
                 on_progress(task.index, int(item))
     timeline.mark("last clip back")
     if timeline.wanted():                       # a round trip to every actor, for the log alone
-        _startups(ray, actors, timeline)
+        _startups(ray, session.actors, timeline)
 
 
 def _startups(ray, actors: list, timeline: Timeline) -> None:

@@ -8,6 +8,7 @@ every clip, and a rerun skips what it lists as done with unchanged content hashe
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
 import logging
 import os
@@ -143,8 +144,61 @@ def run_batch(jobs: list[Job], outdir: str | os.PathLike, config: BatchConfig) -
     report = outdir / REPORT_NAME
     previous = read_report(report)
     t0 = time.perf_counter()
+    with _engine_session(config, jobs, previous, outdir) as session:
+        rows, tasks, expected = _plan(jobs, outdir, config, animate_config, previous,
+                                      rig_hashes=rig_hashes, options=options)
 
-    rows: list[Row | None] = [None] * len(jobs)
+        def finished() -> list[Row]:
+            return [r for r in rows if r.status]
+
+        write_report(report, finished())
+        seen = dict.fromkeys(expected, 0)
+        counts = {"done": 0, "failed": 0, "skipped": sum(r.status == "skipped" for r in finished())}
+
+        from tqdm import tqdm
+
+        show = config.progress if config.progress is not None else sys.stderr.isatty()
+        with tqdm(total=sum(expected.values()), unit="frame", desc="batch", disable=not show or not tasks,
+                  dynamic_ncols=True) as bar:
+            bar.set_postfix(counts)
+
+            def on_progress(index: int, frames: int) -> None:
+                seen[index] = seen.get(index, 0) + frames
+                bar.update(frames)
+
+            def on_result(result: ClipResult) -> None:
+                i = result.index
+                short = expected[i] - seen.get(i, 0)
+                if short:           # the container's count was off, or the clip failed part way
+                    bar.total = max(bar.n, bar.total - short)
+                    bar.refresh()
+                status = "done" if result.ok else "failed"
+                counts[status] += 1
+                rows[i] = replace(rows[i], status=status, frames=result.frames,
+                                  frames_with_face=result.frames_with_face, seconds=result.seconds, error=result.error)
+                if not result.ok:
+                    log.warning("%s", result.error)
+                write_report(report, finished())
+                bar.set_postfix(counts)
+
+            runner = ENGINES[config.engine]
+            with handle_signals():
+                runner(longest_first(tasks, expected), workers=config.workers, address=config.address,
+                       on_progress=on_progress, on_result=on_result, **_given(session=session))
+        done = finished()
+        return BatchSummary(done, report, time.perf_counter() - t0, counts)
+
+
+def _given(**options) -> dict:
+    """The options that are not None."""
+    return {k: v for k, v in options.items() if v is not None}
+
+
+def _plan(jobs: list[Job], outdir: Path, config: BatchConfig, animate_config: AnimateConfig, previous: dict, *,
+          rig_hashes: dict, options: str) -> tuple[list[Row], list[ClipTask], dict[int, int]]:
+    """Each job's row (``skipped`` when the report lists it done with these hashes and its outputs exist, else a
+    row still to fill), the tasks of the jobs to run and their clips' frame counts (task index -> frames)."""
+    rows: list[Row] = []
     tasks: list[ClipTask] = []
     expected: dict[int, int] = {}
     for i, job in enumerate(jobs):
@@ -155,50 +209,40 @@ def run_batch(jobs: list[Job], outdir: str | os.PathLike, config: BatchConfig) -
         skipped = can_skip(previous.get(job.name), clip_sha256=clip_sha, rig_sha256=base.rig_sha256,
                            options_sha256=options, outputs=list(outputs.values()))
         if skipped is not None:
-            rows[i] = replace(base, status="skipped", frames=skipped.frames,
-                              frames_with_face=skipped.frames_with_face, seconds=skipped.seconds)
+            rows.append(replace(base, status="skipped", frames=skipped.frames,
+                                frames_with_face=skipped.frames_with_face, seconds=skipped.seconds))
             continue
-        rows[i] = base
+        rows.append(base)
         tasks.append(ClipTask(index=i, clip=job.clip, rig=job.rig, rig_sha256=base.rig_sha256,
                               outputs={k: str(v) for k, v in outputs.items()}, config=animate_config))
         expected[i] = _frame_count(job.clip)
+    return rows, tasks, expected
 
-    def finished() -> list[Row]:
-        return [r for r in rows if r is not None and r.status]
 
-    write_report(report, finished())
-    seen = dict.fromkeys(expected, 0)
-    counts = {"done": 0, "failed": 0, "skipped": sum(r.status == "skipped" for r in finished())}
+@contextlib.contextmanager
+def _engine_session(config: BatchConfig, jobs: list[Job], previous: dict, outdir: Path):
+    """The Ray engine's session (:class:`~facepuppet.batch.ray_engine.RaySession`), opened before the clips are
+    hashed so that its actors start meanwhile, and closed at the end; it asks for one actor at most per clip that
+    the report does not list as done with its outputs in place. None for the local engine, and when every clip
+    looks done: a rerun with nothing to do connects to no cluster (should the hashes say otherwise, the engine
+    opens its own session)."""
+    todo = [] if config.engine != "ray" else [j for j in jobs if not _looks_done(previous.get(j.name), outdir, j,
+                                                                                   config)]
+    if not todo:
+        yield None
+        return
+    from facepuppet.batch.ray_engine import RaySession
 
-    from tqdm import tqdm
+    session = RaySession(workers=config.workers, address=config.address, most=len(todo),
+                         warm=(config.animate or AnimateConfig()).tracker)
+    try:
+        yield session
+    finally:
+        session.close()
 
-    show = config.progress if config.progress is not None else sys.stderr.isatty()
-    with tqdm(total=sum(expected.values()), unit="frame", desc="batch", disable=not show or not tasks,
-              dynamic_ncols=True) as bar:
-        bar.set_postfix(counts)
 
-        def on_progress(index: int, frames: int) -> None:
-            seen[index] = seen.get(index, 0) + frames
-            bar.update(frames)
-
-        def on_result(result: ClipResult) -> None:
-            i = result.index
-            short = expected[i] - seen.get(i, 0)
-            if short:           # the container's count was off, or the clip failed part way
-                bar.total = max(bar.n, bar.total - short)
-                bar.refresh()
-            status = "done" if result.ok else "failed"
-            counts[status] += 1
-            rows[i] = replace(rows[i], status=status, frames=result.frames,
-                              frames_with_face=result.frames_with_face, seconds=result.seconds, error=result.error)
-            if not result.ok:
-                log.warning("%s", result.error)
-            write_report(report, finished())
-            bar.set_postfix(counts)
-
-        runner = ENGINES[config.engine]
-        with handle_signals():
-            runner(longest_first(tasks, expected), workers=config.workers, address=config.address,
-                   on_progress=on_progress, on_result=on_result)
-    done = finished()
-    return BatchSummary(done, report, time.perf_counter() - t0, counts)
+def _looks_done(row: Row | None, outdir: Path, job: Job, config: BatchConfig) -> bool:
+    """Whether the report's row says the job is done and its outputs exist (the hashes are not looked at)."""
+    return (row is not None and row.status in ("done", "skipped")
+            and all(p.is_file() for p in output_paths(outdir, job.name, csv=config.csv,
+                                                     preview=config.preview).values()))
