@@ -84,8 +84,9 @@ RAY_NICENESS = 15
 #: Seconds to wait for the benchmark's Ray cluster to start, and to stop.
 CLUSTER_START_S, CLUSTER_STOP_S = 180, 60
 
-#: Seconds between two looks at the CPU of a Ray run's processes.
+#: Seconds between two looks at the CPU of a Ray run's processes, and the looks that also scan for new ones.
 SAMPLE_S = 0.2
+SCAN_EVERY = 5
 
 #: Seconds a run's leftover processes (its own Ray runtime's, a stopped cluster's) get to end before the next run.
 SESSION_GONE_S = 30
@@ -123,12 +124,15 @@ def free_port() -> int:
 class SessionCPU:
     """CPU seconds (user + system) that the processes of the sessions ``sids`` spend while it runs, from Linux's
     /proc, looked at every :data:`SAMPLE_S` seconds (a process is counted up to its last look: Ray's workers end
-    and are reaped by their own parents, so the CPU of waited-for children cannot count them)."""
+    and are reaped by their own parents, so the CPU of waited-for children cannot count them). Each look reads
+    the processes found so far; every :data:`SCAN_EVERY`-th look also scans /proc for new ones (a full scan
+    costs a few milliseconds of the CPU the runs share)."""
 
     def __init__(self, sids) -> None:
         self.sids = set(sids)
         self.first: dict[int, float] = {}
         self.last: dict[int, float] = {}
+        self.looks = 0
         self.done = threading.Event()
         self.tick = os.sysconf("SC_CLK_TCK")
         self.look()
@@ -137,7 +141,10 @@ class SessionCPU:
         self.thread.start()
 
     def look(self) -> None:
-        for stat in Path("/proc").glob("[0-9]*/stat"):
+        scan = self.looks % SCAN_EVERY == 0
+        self.looks += 1
+        stats = Path("/proc").glob("[0-9]*/stat") if scan else (Path(f"/proc/{p}/stat") for p in list(self.last))
+        for stat in stats:
             try:
                 fields = stat.read_text().rsplit(")", 1)[1].split()
             except OSError:
@@ -152,6 +159,7 @@ class SessionCPU:
     def stop(self) -> float:
         self.done.set()
         self.thread.join()
+        self.looks = 0                          # the last look scans: processes started since are counted
         self.look()
         return sum(v - self.first.get(p, 0.0) for p, v in self.last.items())
 
