@@ -261,23 +261,25 @@ def test_more_actors_than_clips_to_run_end_before_the_clips(monkeypatch, tmp_pat
     assert events.count("actor") == 1                            # one clip looks undone: one actor asked for
 
 
-def test_a_rerun_with_every_clip_done_connects_to_no_cluster(monkeypatch, tmp_path):
+def done_before(monkeypatch, tmp_path, clips: int) -> list:
+    """A batch of ``clips`` run once, their outputs put in place (the fake actors write none); its events cleared."""
     events: list = []
-    batch(monkeypatch, tmp_path, 2, events)
-    for k in range(2):
+    batch(monkeypatch, tmp_path, clips, events)
+    for k in range(clips):
         (tmp_path / "out" / f"c{k}.glb").write_bytes(b"glb")
     events.clear()
+    return events
+
+
+def test_a_rerun_with_every_clip_done_connects_to_no_cluster(monkeypatch, tmp_path):
+    events = done_before(monkeypatch, tmp_path, 2)
     ray, summary = batch(monkeypatch, tmp_path, 2, events)
     assert [r.status for r in summary.rows] == ["skipped", "skipped"]
     assert events == ["hash", "hash"] and ray.inits == []
 
 
 def test_a_clip_changed_since_the_report_still_runs_when_every_clip_looked_done(monkeypatch, tmp_path):
-    events: list = []
-    batch(monkeypatch, tmp_path, 2, events)
-    for k in range(2):
-        (tmp_path / "out" / f"c{k}.glb").write_bytes(b"glb")
-    events.clear()
+    events = done_before(monkeypatch, tmp_path, 2)
     ray, summary = batch(monkeypatch, tmp_path, 2, events, hashed=lambda path: "changed")
     assert [r.status for r in summary.rows] == ["done", "done"]
     assert events[:2] == ["hash", "hash"] and events[2] == "init"   # the engine opened its own session
