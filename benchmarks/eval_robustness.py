@@ -18,7 +18,8 @@ such footage from the shared clips and measures it with the shared yardstick:
   background within the window darken too);
 - ``lowres``: the frame shrunk to 2/5 and saved as JPEG of quality 35, kept at that size (a cheap webcam's stream);
 - ``backlit``: the frame halved in brightness under a veiling glare that falls from white at the top to nothing
-  two thirds down (a bright window behind and above the performer: low contrast on the upper face).
+  two thirds down (a bright window behind and above the performer: low contrast on the upper face);
+- ``haze``: the contrast times 0.55 under an even veil of 100 levels (haze, or a bright scene scattered in the lens).
 
 Background copies: the face (an oval around MediaPipe's eyes on the original frame, feathered) cut out and set on
 a made-up scene, the kind of room that fools a skin-colour model:
@@ -36,7 +37,7 @@ profile (no landmark model: the copies test the colour pipeline alone), and scor
 The bars of the shared clips are NME <= 0.05, jitter ratio <= 1.5, coverage >= 0.98.
 
 Run: ``python benchmarks/eval_robustness.py [--clips performer_a performer_c] [--variants dim warm noisy small
-face80 cool rolled mirrored portrait darker lowres backlit wood beige skin_object poster stage_hand]
+face80 cool rolled mirrored portrait darker lowres backlit haze wood beige skin_object poster stage_hand]
 [--assets PATH] [--jobs 2]``
 (about a minute per copy of a or c on one core, MediaPipe's reference included; ``performer_b_exaggerated`` is
 three times as long).
@@ -57,7 +58,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 VARIANTS = ("dim", "warm", "noisy", "small", "face80", "cool", "rolled", "mirrored", "portrait", "darker", "lowres",
-            "backlit")
+            "backlit", "haze")
 BACKGROUNDS = ("wood", "beige", "skin_object", "poster", "stage_hand")
 #: The face cut out: an oval centred this far below the eyes, with these half-axes (eye-centre distances).
 FACE_OVAL = (0.8, 1.2, 1.75)
@@ -162,6 +163,8 @@ def altered(rgb: np.ndarray, variant: str, rng: np.random.Generator, unit: float
     elif variant == "backlit":
         glare = np.clip(np.linspace(1.0, 0.0, rgb.shape[0], dtype=np.float32) * 1.4 - 0.5, 0.0, 1.0)
         x = x * 0.5 + 255.0 * glare[:, None, None]
+    elif variant == "haze":
+        x = x * 0.55 + 100.0
     else:
         raise ValueError(f"unknown variant {variant!r}; choose from {', '.join(VARIANTS)}")
     return np.clip(x + 0.5, 0, 255).astype(np.uint8)

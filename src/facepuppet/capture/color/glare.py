@@ -21,6 +21,7 @@ import numpy as np
 
 from facepuppet._util.jit import INNER, KERNEL
 from facepuppet.capture.color.transform import ycrcb_u8
+from facepuppet.capture.color.veil import without_veil
 
 __all__ = ["GLARE", "glare_mask", "glare_pixels", "without_glare"]
 
@@ -180,8 +181,10 @@ def glare_pixels(crop: np.ndarray, cheeks: np.ndarray, x0: int, y0: int, x1: int
 
 
 def without_glare(crop: np.ndarray, cheeks: np.ndarray, eyes: np.ndarray, unit: float) -> np.ndarray:
-    """The face crop (H, W, 3) uint8 with a reflection around the eyes (:func:`glare_mask`) filled in from its
-    surroundings; the crop itself where there is none."""
+    """The face crop (H, W, 3) uint8 with a veil over the face taken off (:func:`.veil.without_veil`) and a
+    reflection around the eyes (:func:`glare_mask`) filled in from its surroundings; the crop itself where there
+    is neither."""
+    crop = without_veil(crop, unit)
     mask = glare_mask(crop, cheeks, eyes, unit)
     if mask is None:
         return crop

@@ -1,0 +1,174 @@
+"""Veiling glare taken off a face crop: a smooth colourless light added over the face (a bright window or lamp
+behind or above the performer scattered in the lens, haze) measured on the skin and subtracted.
+
+A veil adds the same light v(x, y) to the three channels, so it lifts the darker ones most and washes the skin's
+colour and the features' contrast out where it is strong: Eq. 1 then reads a veiled forehead and eyes as skin
+and a clear chin as features, and neither the eye search nor the likeness finds the face. The skin's own colour
+tells the veil apart from the face's shading: for skin of one colour under a light of one colour, shading scales
+the three channels alike, so blue is a fixed share ``k`` of red minus blue, ``B = k (R - B)``, at any shading;
+a veil adds ``v`` to blue and nothing to red minus blue. Over the face's part of the crop (:data:`VEIL_FACE`)
+``B = k (R - B) + v`` is fitted with ``v`` one level per band of rows (:data:`VEIL` ``bands``) plus a slope
+across, by least squares reweighted against the pixels that are not skin (Huber's weights: hair, eyes, brows,
+lips); the veil is the fitted field less its lowest value (a veil even over the face only lowers the contrast,
+which the contrast C and the light's stretch take out). A veil rising less than ``least`` over the face is left
+(the skin's own variation, redder cheeks and lips, gives such a field on a clear face); a larger one is
+subtracted and the crop stretched back so that its brightest (``top``) level is where the light's stretch keeps a
+face's.
+
+Conventions: RGB uint8 face crops (H, W, 3) of ``px`` crop pixels per face unit, the face frame's origin at
+:data:`~.face.CROP_EXTENT`; levels 8-bit.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from facepuppet._util.jit import KERNEL
+from facepuppet.capture.color.face import CROP_EXTENT
+
+__all__ = ["VEIL", "VEIL_FACE", "veil_rows", "without_veil"]
+
+#: The veil's measure: name -> (value, unit, meaning).
+VEIL = {
+    "bands": (7, "bands", "rows of the measured part, top to bottom, each with a veil level of its own"),
+    "stride": (4, "pixels", "every this many rows and columns of the crop are measured"),
+    "huber": (8.0, "8-bit levels", "a pixel off the fit by more than this weighs less (not skin)"),
+    "iterations": (3, "fits", "least-squares fits, each reweighted by the last one's residuals"),
+    "least": (30.0, "8-bit levels", "a veil rising less than this over the face is left"),
+    "top": (230.0, "8-bit level", "the crop's 99th-percentile level once the veil is off"),
+}
+#: The part of the crop the veil is measured on (face units x0, y0, x1, y1): the face within its outline.
+VEIL_FACE = (-0.95, -0.8, 0.95, 1.7)
+
+
+_BANDS, _STRIDE, _ITERATIONS = (int(VEIL[k][0]) for k in ("bands", "stride", "iterations"))
+_HUBER, _LEAST, _TOP = (float(VEIL[k][0]) for k in ("huber", "least", "top"))
+
+
+@nb.njit(**KERNEL)
+def veil_rows(crop: np.ndarray, x0: int, y0: int, x1: int, y1: int, bands: int, stride: int, huber: float,
+              iterations: int):
+    """The veil fitted on ``crop[y0:y1, x0:x1]`` (every ``stride``-th row and column): ``B = k (R - B) + v_b +
+    s (x - xc)`` by Huber-reweighted least squares, ``v_b`` one level per band of ``bands`` equal bands of rows,
+    ``s`` the slope across (per crop pixel, ``xc`` the part's middle column).
+
+    Returns (ok, levels (bands,) float64 the bands' v_b, slope s, k); ok False where the fit is degenerate (too
+    few pixels, no spread of red minus blue) or k is not positive. A band without pixels takes its neighbour's
+    level.
+    """
+    levels = np.zeros(bands)
+    xc = 0.5 * (x0 + x1 - 1)
+    span = max(y1 - y0, 1)
+    k = 0.0
+    s = 0.0
+    first = True
+    for _ in range(iterations):
+        sw = np.zeros(bands)
+        sa = np.zeros(bands)
+        sx = np.zeros(bands)
+        sb = np.zeros(bands)
+        saa = sax = sxx = sab = sxb = 0.0
+        for y in range(y0, y1, stride):
+            band = min((y - y0) * bands // span, bands - 1)
+            for x in range(x0, x1, stride):
+                r, b = float(crop[y, x, 0]), float(crop[y, x, 2])
+                a, u = r - b, float(x) - xc
+                w = 1.0
+                if not first:
+                    e = abs(b - k * a - s * u - levels[band])
+                    w = 1.0 if e <= huber else huber / e
+                sw[band] += w
+                sa[band] += w * a
+                sx[band] += w * u
+                sb[band] += w * b
+                saa += w * a * a
+                sax += w * a * u
+                sxx += w * u * u
+                sab += w * a * b
+                sxb += w * u * b
+        # The bands' levels eliminated: the sums about each band's weighted means.
+        for j in range(bands):
+            if sw[j] > 0.0:
+                saa -= sa[j] * sa[j] / sw[j]
+                sax -= sa[j] * sx[j] / sw[j]
+                sxx -= sx[j] * sx[j] / sw[j]
+                sab -= sa[j] * sb[j] / sw[j]
+                sxb -= sx[j] * sb[j] / sw[j]
+        det = saa * sxx - sax * sax
+        if det <= 1e-9 * max(saa * sxx, 1e-12):
+            return False, levels, 0.0, 0.0
+        k = (sab * sxx - sxb * sax) / det
+        s = (sxb * saa - sab * sax) / det
+        for j in range(bands):
+            if sw[j] > 0.0:
+                levels[j] = (sb[j] - k * sa[j] - s * sx[j]) / sw[j]
+            else:
+                levels[j] = np.nan
+        for j in range(1, bands):
+            if np.isnan(levels[j]):
+                levels[j] = levels[j - 1]
+        for j in range(bands - 2, -1, -1):
+            if np.isnan(levels[j]):
+                levels[j] = levels[j + 1]
+        if np.isnan(levels[0]):
+            return False, levels, 0.0, 0.0
+        first = False
+    return k > 0.0, levels, s, k
+
+
+@nb.njit(**KERNEL)
+def _take_off(crop: np.ndarray, field_rows: np.ndarray, slope: float, xc: float, low: float, top: float) -> np.ndarray:
+    """The crop less the veil ``field_rows[y] + slope (x - xc) - low`` (clipped at 0), stretched so that the
+    99th-percentile level of its every other row and column is ``top``."""
+    h, w = crop.shape[:2]
+    across = np.empty(w, np.float32)
+    for x in range(w):
+        across[x] = slope * (x - xc) - low
+    hist = np.zeros(256, np.int64)
+    n_all = 0
+    for y in range(0, h, 2):
+        for x in range(0, w, 2):
+            v = field_rows[y] + across[x]
+            for c in range(3):
+                hist[int(min(max(crop[y, x, c] - v, 0.0), 255.0))] += 1
+            n_all += 3
+    target = 0.99 * n_all
+    n = 0
+    level = 255
+    for i in range(256):
+        n += hist[i]
+        if n >= target:
+            level = i
+            break
+    gain = np.float32(top / max(level, 1))
+    out = np.empty_like(crop)
+    for y in range(h):
+        row = np.float32(field_rows[y])
+        for x in range(w):
+            v = row + across[x]
+            for c in range(3):
+                out[y, x, c] = np.uint8(min(max((np.float32(crop[y, x, c]) - v) * gain + np.float32(0.5),
+                                                np.float32(0.0)), np.float32(255.0)))
+    return out
+
+
+def without_veil(crop: np.ndarray, px: float) -> np.ndarray:
+    """The face crop (H, W, 3) uint8 with its veil (module docstring) taken off and stretched back; the crop
+    itself where the veil rises less than :data:`VEIL` ``least`` over the face (or cannot be measured)."""
+    h, w = crop.shape[:2]
+    fx0, fy0, fx1, fy1 = VEIL_FACE
+    x0, x1 = max(int((fx0 - CROP_EXTENT[0]) * px), 0), min(int((fx1 - CROP_EXTENT[0]) * px), w)
+    y0, y1 = max(int((fy0 - CROP_EXTENT[1]) * px), 0), min(int((fy1 - CROP_EXTENT[1]) * px), h)
+    if x1 - x0 < 4 or y1 - y0 < 4:
+        return crop
+    ok, levels, slope, _ = veil_rows(crop, x0, y0, x1, y1, _BANDS, _STRIDE, _HUBER, _ITERATIONS)
+    # Between the bands' middle rows the veil runs linearly from one level to the next: over the face it rises
+    # from the lowest band level to the highest, and across by the slope.
+    if not ok or float(levels.max() - levels.min()) + abs(slope) * (x1 - x0) < _LEAST:
+        return crop
+    centres = y0 + (np.arange(_BANDS) + 0.5) * (y1 - y0) / _BANDS
+    rows = np.interp(np.arange(h, dtype=float), centres, levels)        # level beyond the first and last
+    # The lowest level over the whole crop is no veil.
+    low = float(rows.min() - abs(slope) * 0.5 * w)
+    return _take_off(np.ascontiguousarray(crop), rows, float(slope), 0.5 * (x0 + x1 - 1), low, _TOP)
