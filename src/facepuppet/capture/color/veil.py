@@ -24,7 +24,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from facepuppet._util.jit import KERNEL
+from facepuppet._util.jit import INNER, KERNEL
 from facepuppet.capture.color.face import CROP_EXTENT
 
 __all__ = ["VEIL", "VEIL_FACE", "veil_rows", "without_veil"]
@@ -36,34 +36,66 @@ VEIL = {
     "huber": (8.0, "8-bit levels", "a pixel off the fit by more than this weighs less (not skin)"),
     "iterations": (3, "fits", "least-squares fits, each reweighted by the last one's residuals"),
     "least": (30.0, "8-bit levels", "a veil rising less than this over the face is left"),
+    "chroma": (10.0, "8-bit levels", "least red over blue of a pixel measured (skin's colour; a veil keeps it)"),
+    "pixels": (8, "pixels", "fewest measured pixels of a band with a level of its own"),
+    "dark": (0.05, "share", "of a band's pixels darker (darkest channel) than its dark level"),
     "top": (230.0, "8-bit level", "the crop's 99th-percentile level once the veil is off"),
 }
 #: The part of the crop the veil is measured on (face units x0, y0, x1, y1): the face within its outline.
 VEIL_FACE = (-0.95, -0.8, 0.95, 1.7)
 
 
-_BANDS, _STRIDE, _ITERATIONS = (int(VEIL[k][0]) for k in ("bands", "stride", "iterations"))
-_HUBER, _LEAST, _TOP = (float(VEIL[k][0]) for k in ("huber", "least", "top"))
+_BANDS, _STRIDE, _ITERATIONS, _PIXELS = (int(VEIL[k][0]) for k in ("bands", "stride", "iterations", "pixels"))
+_HUBER, _LEAST, _TOP, _CHROMA, _DARK = (float(VEIL[k][0]) for k in ("huber", "least", "top", "chroma", "dark"))
+
+
+@nb.njit(**INNER)
+def _skin_coloured(crop: np.ndarray, y: int, x: int, chroma: float) -> bool:
+    """Whether a pixel has skin's order of channels, red over green over blue, red over blue by ``chroma`` at
+    least (a colourless veil changes neither), no channel clipped (red under 250, blue over 5)."""
+    r, g, b = crop[y, x, 0], crop[y, x, 1], crop[y, x, 2]
+    return r < 250 and b > 5 and r >= g >= b and float(r) - float(b) >= chroma
 
 
 @nb.njit(**KERNEL)
 def veil_rows(crop: np.ndarray, x0: int, y0: int, x1: int, y1: int, bands: int, stride: int, huber: float,
-              iterations: int):
-    """The veil fitted on ``crop[y0:y1, x0:x1]`` (every ``stride``-th row and column): ``B = k (R - B) + v_b +
-    s (x - xc)`` by Huber-reweighted least squares, ``v_b`` one level per band of ``bands`` equal bands of rows,
-    ``s`` the slope across (per crop pixel, ``xc`` the part's middle column).
+              iterations: int, chroma: float, least_pixels: int, dark_share: float):
+    """The veil fitted on the skin-coloured pixels (:func:`_skin_coloured` with ``chroma``) of
+    ``crop[y0:y1, x0:x1]`` (every ``stride``-th row and column): ``B = k (R - B) + v_b + s (x - xc)`` by
+    Huber-reweighted (``huber`` levels) least squares, ``iterations`` fits; ``v_b`` one level per band of
+    ``bands`` equal bands of rows, ``s`` the slope across (per crop pixel, ``xc`` the part's middle column).
 
-    Returns (ok, levels (bands,) float64 the bands' v_b, slope s, k); ok False where the fit is degenerate (too
-    few pixels, no spread of red minus blue) or k is not positive. A band without pixels takes its neighbour's
-    level.
+    Returns (ok, levels (bands,) float64 the bands' v_b, dark (bands,) float64 the ``dark_share`` quantile of each
+    band's pixels' darkest channel (all pixels sampled), slope s, k); a band of fewer than ``least_pixels``
+    skin-coloured pixels takes its nearest measured neighbour's level; ok False where no band has that many, the
+    fit is degenerate (no spread of red minus blue) or k is not positive.
     """
-    levels = np.zeros(bands)
+    levels = np.full(bands, np.nan)
     xc = 0.5 * (x0 + x1 - 1)
     span = max(y1 - y0, 1)
+    cnt = np.zeros(bands, np.int64)
+    hist = np.zeros((bands, 256), np.int64)
+    for y in range(y0, y1, stride):
+        band = min((y - y0) * bands // span, bands - 1)
+        for x in range(x0, x1, stride):
+            hist[band, min(crop[y, x, 0], crop[y, x, 1], crop[y, x, 2])] += 1
+            if _skin_coloured(crop, y, x, chroma):
+                cnt[band] += 1
+    # Each band's dark level: the ``dark_share`` quantile of its pixels' darkest channel.
+    dark = np.zeros(bands)
+    for j in range(bands):
+        total = hist[j].sum()
+        n = 0
+        for i in range(256):
+            n += hist[j, i]
+            if n > dark_share * total:
+                dark[j] = i
+                break
+    if cnt.max() < least_pixels:
+        return False, levels, dark, 0.0, 0.0
     k = 0.0
     s = 0.0
-    first = True
-    for _ in range(iterations):
+    for it in range(iterations):
         sw = np.zeros(bands)
         sa = np.zeros(bands)
         sx = np.zeros(bands)
@@ -71,11 +103,15 @@ def veil_rows(crop: np.ndarray, x0: int, y0: int, x1: int, y1: int, bands: int, 
         saa = sax = sxx = sab = sxb = 0.0
         for y in range(y0, y1, stride):
             band = min((y - y0) * bands // span, bands - 1)
+            if cnt[band] < least_pixels:
+                continue
             for x in range(x0, x1, stride):
+                if not _skin_coloured(crop, y, x, chroma):
+                    continue
                 r, b = float(crop[y, x, 0]), float(crop[y, x, 2])
                 a, u = r - b, float(x) - xc
                 w = 1.0
-                if not first:
+                if it > 0:
                     e = abs(b - k * a - s * u - levels[band])
                     w = 1.0 if e <= huber else huber / e
                 sw[band] += w
@@ -89,7 +125,7 @@ def veil_rows(crop: np.ndarray, x0: int, y0: int, x1: int, y1: int, bands: int, 
                 sxb += w * u * b
         # The bands' levels eliminated: the sums about each band's weighted means.
         for j in range(bands):
-            if sw[j] > 0.0:
+            if cnt[j] >= least_pixels:
                 saa -= sa[j] * sa[j] / sw[j]
                 sax -= sa[j] * sx[j] / sw[j]
                 sxx -= sx[j] * sx[j] / sw[j]
@@ -97,24 +133,22 @@ def veil_rows(crop: np.ndarray, x0: int, y0: int, x1: int, y1: int, bands: int, 
                 sxb -= sx[j] * sb[j] / sw[j]
         det = saa * sxx - sax * sax
         if det <= 1e-9 * max(saa * sxx, 1e-12):
-            return False, levels, 0.0, 0.0
+            return False, levels, dark, 0.0, 0.0
         k = (sab * sxx - sxb * sax) / det
         s = (sxb * saa - sab * sax) / det
         for j in range(bands):
-            if sw[j] > 0.0:
+            if cnt[j] >= least_pixels:
                 levels[j] = (sb[j] - k * sa[j] - s * sx[j]) / sw[j]
-            else:
-                levels[j] = np.nan
-        for j in range(1, bands):
-            if np.isnan(levels[j]):
-                levels[j] = levels[j - 1]
-        for j in range(bands - 2, -1, -1):
-            if np.isnan(levels[j]):
-                levels[j] = levels[j + 1]
-        if np.isnan(levels[0]):
-            return False, levels, 0.0, 0.0
-        first = False
-    return k > 0.0, levels, s, k
+    out = levels.copy()
+    for j in range(bands):
+        if cnt[j] < least_pixels:
+            best = -1
+            for d in range(1, bands):
+                for m in (j - d, j + d):
+                    if best < 0 and 0 <= m < bands and cnt[m] >= least_pixels:
+                        best = m
+            out[j] = levels[best]
+    return k > 0.0, out, dark, s, k
 
 
 @nb.njit(**KERNEL)
@@ -162,10 +196,16 @@ def without_veil(crop: np.ndarray, px: float) -> np.ndarray:
     y0, y1 = max(int((fy0 - CROP_EXTENT[1]) * px), 0), min(int((fy1 - CROP_EXTENT[1]) * px), h)
     if x1 - x0 < 4 or y1 - y0 < 4:
         return crop
-    ok, levels, slope, _ = veil_rows(crop, x0, y0, x1, y1, _BANDS, _STRIDE, _HUBER, _ITERATIONS)
+    ok, levels, dark, slope, _ = veil_rows(crop, x0, y0, x1, y1, _BANDS, _STRIDE, _HUBER, _ITERATIONS, _CHROMA,
+                                           _PIXELS, _DARK)
+    if not ok:
+        return crop
     # Between the bands' middle rows the veil runs linearly from one level to the next: over the face it rises
-    # from the lowest band level to the highest, and across by the slope.
-    if not ok or float(levels.max() - levels.min()) + abs(slope) * (x1 - x0) < _LEAST:
+    # from the lowest band level to the highest (the slope across, which a face's shading also gives, is taken
+    # off with a veil found but finds none). A veil lifts the darkest pixels under it with the rest: a band is
+    # veiled only as far as its dark level too lies above the darkest band's (the camera's black, no veil).
+    levels = levels - levels.min()
+    if float(np.minimum(levels, dark - dark.min()).max()) < _LEAST:
         return crop
     centres = y0 + (np.arange(_BANDS) + 0.5) * (y1 - y0) / _BANDS
     rows = np.interp(np.arange(h, dtype=float), centres, levels)        # level beyond the first and last

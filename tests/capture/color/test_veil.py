@@ -1,0 +1,95 @@
+"""A veil over a drawn face crop measured on the skin's colour and taken off: a veil falling from the forehead
+is found band by band and subtracted, a clear face (shaded, with dark features) and an even veil are left."""
+
+import cv2
+import numpy as np
+
+from facepuppet.capture.color.face import CROP_EXTENT, FEATURE_BOXES, box_in_crop
+from facepuppet.capture.color.glare import without_glare
+from facepuppet.capture.color.veil import VEIL, VEIL_FACE, veil_rows, without_veil
+
+PX = 48.0
+W, H = int(round((CROP_EXTENT[2] - CROP_EXTENT[0]) * PX)), int(round((CROP_EXTENT[3] - CROP_EXTENT[1]) * PX))
+SKIN = np.array([170.0, 115.0, 90.0])
+CHEEKS = np.array([box_in_crop(FEATURE_BOXES[k], PX) for k in ("cheek_left", "cheek_right")], dtype=np.int64)
+EYES = np.array([box_in_crop(FEATURE_BOXES[k], PX) for k in ("eye_right", "eye_left")], dtype=np.int64)
+
+
+def _at(x, y):
+    """Face units -> crop pixels."""
+    return (x - CROP_EXTENT[0]) * PX, (y - CROP_EXTENT[1]) * PX
+
+
+def _face() -> np.ndarray:
+    """(H, W, 3) float32 a skin crop shaded darker to the right and down, dark eyes, brows and mouth."""
+    y, x = np.mgrid[0:H, 0:W].astype(np.float32)
+    shade = (1.0 - 0.25 * x / W) * (1.0 - 0.2 * y / H)
+    crop = SKIN[None, None].astype(np.float32) * shade[..., None]
+    crop = np.ascontiguousarray(crop)
+    for side in (-0.5, 0.5):
+        cv2.ellipse(crop, (_at(side, 0.0), (0.45 * PX, 0.18 * PX), 0.0), (50.0, 35.0, 30.0), -1)
+        cv2.ellipse(crop, (_at(side, -0.35), (0.6 * PX, 0.1 * PX), 0.0), (70.0, 50.0, 40.0), -1)
+    cv2.ellipse(crop, (_at(0.0, 1.2), (0.8 * PX, 0.15 * PX), 0.0), (120.0, 50.0, 50.0), -1)
+    return crop
+
+
+def _veil() -> np.ndarray:
+    """(H, W) float32 a veil falling from 120 levels at the crop's top to nothing two thirds down."""
+    fall = np.clip(1.0 - np.arange(H, dtype=np.float32) / (2.0 * H / 3.0), 0.0, 1.0)
+    return np.repeat((120.0 * fall)[:, None], W, axis=1)
+
+
+def _u8(x):
+    return np.clip(x + 0.5, 0, 255).astype(np.uint8)
+
+
+def _part():
+    x0, y0 = (int(v) for v in _at(VEIL_FACE[0], VEIL_FACE[1]))
+    x1, y1 = (int(v) for v in _at(VEIL_FACE[2], VEIL_FACE[3]))
+    return x0, y0, x1, min(y1, H)
+
+
+def test_a_clear_shaded_face_is_left():
+    crop = _u8(_face())
+    assert without_veil(crop, PX) is crop
+
+
+def test_an_even_veil_is_left():
+    crop = _u8(0.6 * _face() + 90.0)
+    assert without_veil(crop, PX) is crop
+
+
+def test_a_veil_falling_over_the_face_is_found_band_by_band():
+    crop = _u8(0.6 * _face() + _veil()[..., None])
+    x0, y0, x1, y1 = _part()
+    bands = int(VEIL["bands"][0])
+    ok, levels, _, slope, _ = veil_rows(crop, x0, y0, x1, y1, bands, int(VEIL["stride"][0]), float(VEIL["huber"][0]),
+                                     int(VEIL["iterations"][0]), float(VEIL["chroma"][0]), int(VEIL["pixels"][0]),
+                                        float(VEIL["dark"][0]))
+    assert ok
+    # The veil's mean over each band's rows, against the fitted levels (both less their lowest).
+    edges = y0 + np.arange(bands + 1) * (y1 - y0) / bands
+    truth = np.array([_veil()[int(a):int(b), 0].mean() for a, b in zip(edges[:-1], edges[1:], strict=True)])
+    np.testing.assert_allclose(levels - levels.min(), truth - truth.min(), atol=8.0)
+    assert abs(slope) * PX < 3.0
+
+
+def test_the_veil_taken_off_gives_the_forehead_its_colour_back():
+    clear = _face()
+    crop = _u8(0.6 * clear + _veil()[..., None])
+    out = without_veil(crop, PX).astype(float)
+    fx, fy = (int(v) for v in _at(0.0, -0.65))                     # the forehead, between the brows' tops
+    patch = out[fy - 2:fy + 3, fx - 2:fx + 3].reshape(-1, 3).mean(axis=0)
+    seen = crop[fy - 2:fy + 3, fx - 2:fx + 3].reshape(-1, 3).mean(axis=0)
+    ratio = lambda p: (p[0] - p[2]) / p[2]                           # noqa: E731
+    assert abs(ratio(patch) - ratio(SKIN)) < 0.25 * ratio(SKIN)     # the skin's colour, not the veil's grey
+    assert ratio(seen) < 0.5 * ratio(SKIN)
+    # The eyes stand out of the forehead again as on the clear face.
+    ex, ey = (int(v) for v in _at(-0.5, 0.0))
+    eye = out[ey - 1:ey + 2, ex - 1:ex + 2].mean()
+    assert patch.mean() - eye > 0.5 * (clear[fy, fx].mean() - clear[ey, ex].mean())
+
+
+def test_the_glare_step_takes_the_veil_off_too():
+    crop = _u8(0.6 * _face() + _veil()[..., None])
+    np.testing.assert_array_equal(without_glare(crop, CHEEKS, EYES, PX), without_veil(crop, PX))
