@@ -65,7 +65,7 @@ def test_a_veil_falling_over_the_face_is_found_band_by_band():
     bands = int(VEIL["bands"][0])
     ok, levels, _, slope, _ = veil_rows(crop, x0, y0, x1, y1, bands, int(VEIL["stride"][0]), float(VEIL["huber"][0]),
                                      int(VEIL["iterations"][0]), float(VEIL["chroma"][0]), int(VEIL["pixels"][0]),
-                                        float(VEIL["dark"][0]))
+                                        float(VEIL["dark"][0]), float(VEIL["least"][0]))
     assert ok
     # The veil's mean over each band's rows, against the fitted levels (both less their lowest).
     edges = y0 + np.arange(bands + 1) * (y1 - y0) / bands
@@ -93,3 +93,19 @@ def test_the_veil_taken_off_gives_the_forehead_its_colour_back():
 def test_the_glare_step_takes_the_veil_off_too():
     crop = _u8(0.6 * _face() + _veil()[..., None])
     np.testing.assert_array_equal(without_glare(crop, CHEEKS, EYES, PX), without_veil(crop, PX))
+
+
+def test_a_bright_grey_wall_above_the_forehead_is_no_veil():
+    face = _face()
+    face[: int(_at(0.0, -0.4)[1])] = 170.0              # colourless, brighter than the skin's blue: not skin
+    crop = _u8(face)
+    assert without_veil(crop, PX) is crop
+
+
+def test_skin_coloured_hair_without_lifted_black_is_no_veil():
+    face = _face()
+    y = int(_at(0.0, -0.4)[1])
+    face[:y] = (150.0, 135.0, 120.0)                     # pale, skin-ordered: to the fit a veiled band ...
+    face[:y:6] = (40.0, 30.0, 20.0)                      # ... but its darkest strands as dark as the eyes
+    crop = _u8(face)
+    assert without_veil(crop, PX) is crop

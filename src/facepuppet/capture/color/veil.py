@@ -6,14 +6,18 @@ colour and the features' contrast out where it is strong: Eq. 1 then reads a vei
 and a clear chin as features, and neither the eye search nor the likeness finds the face. The skin's own colour
 tells the veil apart from the face's shading: for skin of one colour under a light of one colour, shading scales
 the three channels alike, so blue is a fixed share ``k`` of red minus blue, ``B = k (R - B)``, at any shading;
-a veil adds ``v`` to blue and nothing to red minus blue. Over the face's part of the crop (:data:`VEIL_FACE`)
-``B = k (R - B) + v`` is fitted with ``v`` one level per band of rows (:data:`VEIL` ``bands``) plus a slope
-across, by least squares reweighted against the pixels that are not skin (Huber's weights: hair, eyes, brows,
-lips); the veil is the fitted field less its lowest value (a veil even over the face only lowers the contrast,
-which the contrast C and the light's stretch take out). A veil rising less than ``least`` over the face is left
-(the skin's own variation, redder cheeks and lips, gives such a field on a clear face); a larger one is
-subtracted and the crop stretched back so that its brightest (``top``) level is where the light's stretch keeps a
-face's.
+a veil adds ``v`` to blue and nothing to red minus blue. Over the skin-coloured pixels (red over green over
+blue, red over blue by ``chroma``, none clipped: a veil changes neither) of the face's part of the crop
+(:data:`VEIL_FACE`) ``B = k (R - B) + v`` is fitted with ``v`` one level per band of rows (:data:`VEIL`
+``bands``) plus a slope across, by least squares reweighted against the pixels that are not skin after all
+(Huber's weights: hair, lips); the veil is the fitted field less its lowest value (a veil even over the face
+only lowers the contrast, which the contrast C and the light's stretch take out). A veil also lifts the black
+under it: a band is taken as veiled only as far as its dark level (the ``dark`` quantile of its pixels' darkest
+channel) lies above the darkest band's too, which a clear face's dark background or hair above the forehead,
+skin-like to the fit, does not show. Where no band rises ``least`` above the lowest in both, the crop is left
+(the skin's own variation, redder cheeks and lips, gives a smaller field on a clear face); otherwise the veil
+is subtracted and the crop stretched back so that its brightest (``top``) level is where the light's stretch
+keeps a face's.
 
 Conventions: RGB uint8 face crops (H, W, 3) of ``px`` crop pixels per face unit, the face frame's origin at
 :data:`~.face.CROP_EXTENT`; levels 8-bit.
@@ -50,16 +54,15 @@ _HUBER, _LEAST, _TOP, _CHROMA, _DARK = (float(VEIL[k][0]) for k in ("huber", "le
 
 
 @nb.njit(**INNER)
-def _skin_coloured(crop: np.ndarray, y: int, x: int, chroma: float) -> bool:
-    """Whether a pixel has skin's order of channels, red over green over blue, red over blue by ``chroma`` at
-    least (a colourless veil changes neither), no channel clipped (red under 250, blue over 5)."""
-    r, g, b = crop[y, x, 0], crop[y, x, 1], crop[y, x, 2]
-    return r < 250 and b > 5 and r >= g >= b and float(r) - float(b) >= chroma
+def _skin_coloured(r, g, b, chroma: float) -> bool:
+    """Whether a pixel (r, g, b uint8) has skin's order of channels, red over green over blue, red over blue by
+    ``chroma`` at least (a colourless veil changes neither), no channel clipped (red under 250, blue over 5)."""
+    return r < 250 and b > 5 and r >= g and g >= b and float(r) - float(b) >= chroma
 
 
-@nb.njit(**KERNEL)
+@nb.njit(fastmath={"reassoc", "nsz", "contract"}, **KERNEL)
 def veil_rows(crop: np.ndarray, x0: int, y0: int, x1: int, y1: int, bands: int, stride: int, huber: float,
-              iterations: int, chroma: float, least_pixels: int, dark_share: float):
+              iterations: int, chroma: float, least_pixels: int, dark_share: float, least: float):
     """The veil fitted on the skin-coloured pixels (:func:`_skin_coloured` with ``chroma``) of
     ``crop[y0:y1, x0:x1]`` (every ``stride``-th row and column): ``B = k (R - B) + v_b + s (x - xc)`` by
     Huber-reweighted (``huber`` levels) least squares, ``iterations`` fits; ``v_b`` one level per band of
@@ -67,19 +70,26 @@ def veil_rows(crop: np.ndarray, x0: int, y0: int, x1: int, y1: int, bands: int, 
 
     Returns (ok, levels (bands,) float64 the bands' v_b, dark (bands,) float64 the ``dark_share`` quantile of each
     band's pixels' darkest channel (all pixels sampled), slope s, k); a band of fewer than ``least_pixels``
-    skin-coloured pixels takes its nearest measured neighbour's level; ok False where no band has that many, the
-    fit is degenerate (no spread of red minus blue) or k is not positive.
+    skin-coloured pixels takes its nearest measured neighbour's level; ok False (nothing fitted) where no band
+    has that many, or the bands' dark levels rise by less than ``least`` (no veil that large can lie over them),
+    and where the fit is degenerate (no spread of red minus blue) or k is not positive.
     """
     levels = np.full(bands, np.nan)
     xc = 0.5 * (x0 + x1 - 1)
     span = max(y1 - y0, 1)
     cnt = np.zeros(bands, np.int64)
     hist = np.zeros((bands, 256), np.int64)
-    for y in range(y0, y1, stride):
+    ny, nx = (y1 - y0 + stride - 1) // stride, (x1 - x0 + stride - 1) // stride
+    skin = np.zeros((ny, nx), np.bool_)
+    for i in range(ny):
+        y = y0 + i * stride
         band = min((y - y0) * bands // span, bands - 1)
-        for x in range(x0, x1, stride):
-            hist[band, min(crop[y, x, 0], crop[y, x, 1], crop[y, x, 2])] += 1
-            if _skin_coloured(crop, y, x, chroma):
+        for j in range(nx):
+            x = x0 + j * stride
+            r, g, b = crop[y, x, 0], crop[y, x, 1], crop[y, x, 2]
+            hist[band, min(r, g, b)] += 1
+            if _skin_coloured(r, g, b, chroma):
+                skin[i, j] = True
                 cnt[band] += 1
     # Each band's dark level: the ``dark_share`` quantile of its pixels' darkest channel.
     dark = np.zeros(bands)
@@ -91,7 +101,7 @@ def veil_rows(crop: np.ndarray, x0: int, y0: int, x1: int, y1: int, bands: int, 
             if n > dark_share * total:
                 dark[j] = i
                 break
-    if cnt.max() < least_pixels:
+    if cnt.max() < least_pixels or dark.max() - dark.min() < least:
         return False, levels, dark, 0.0, 0.0
     k = 0.0
     s = 0.0
@@ -101,13 +111,15 @@ def veil_rows(crop: np.ndarray, x0: int, y0: int, x1: int, y1: int, bands: int, 
         sx = np.zeros(bands)
         sb = np.zeros(bands)
         saa = sax = sxx = sab = sxb = 0.0
-        for y in range(y0, y1, stride):
+        for i in range(ny):
+            y = y0 + i * stride
             band = min((y - y0) * bands // span, bands - 1)
             if cnt[band] < least_pixels:
                 continue
-            for x in range(x0, x1, stride):
-                if not _skin_coloured(crop, y, x, chroma):
+            for j in range(nx):
+                if not skin[i, j]:
                     continue
+                x = x0 + j * stride
                 r, b = float(crop[y, x, 0]), float(crop[y, x, 2])
                 a, u = r - b, float(x) - xc
                 w = 1.0
@@ -197,7 +209,7 @@ def without_veil(crop: np.ndarray, px: float) -> np.ndarray:
     if x1 - x0 < 4 or y1 - y0 < 4:
         return crop
     ok, levels, dark, slope, _ = veil_rows(crop, x0, y0, x1, y1, _BANDS, _STRIDE, _HUBER, _ITERATIONS, _CHROMA,
-                                           _PIXELS, _DARK)
+                                           _PIXELS, _DARK, _LEAST)
     if not ok:
         return crop
     # Between the bands' middle rows the veil runs linearly from one level to the next: over the face it rises
