@@ -60,7 +60,7 @@ def _skin_coloured(r, g, b, chroma: float) -> bool:
     return r < 250 and b > 5 and r >= g and g >= b and float(r) - float(b) >= chroma
 
 
-@nb.njit(fastmath={"reassoc", "nsz", "contract"}, **KERNEL)
+@nb.njit(**KERNEL)
 def veil_rows(crop: np.ndarray, x0: int, y0: int, x1: int, y1: int, bands: int, stride: int, huber: float,
               iterations: int, chroma: float, least_pixels: int, dark_share: float, least: float):
     """The veil fitted on the skin-coloured pixels (:func:`_skin_coloured` with ``chroma``) of
