@@ -109,3 +109,13 @@ def test_skin_coloured_hair_without_lifted_black_is_no_veil():
     face[:y:6] = (40.0, 30.0, 20.0)                      # ... but its darkest strands as dark as the eyes
     crop = _u8(face)
     assert without_veil(crop, PX) is crop
+
+
+def test_a_bright_colourless_strip_one_band_tall_is_no_veil():
+    x0, y0, x1, y1 = _part()
+    span = (y1 - y0) / int(VEIL["bands"][0])
+    top, bottom = int(y0 + 3 * span) + 1, int(y0 + 4 * span) - 1     # within one band, below the eyes
+    face = _face()
+    face[top:bottom] += 60.0                              # lifts the band's level and its black alike
+    crop = _u8(face)
+    assert without_veil(crop, PX) is crop

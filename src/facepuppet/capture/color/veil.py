@@ -14,9 +14,10 @@ blue, red over blue by ``chroma``, none clipped: a veil changes neither) of the 
 only lowers the contrast, which the contrast C and the light's stretch take out). A veil also lifts the black
 under it: a band is taken as veiled only as far as its dark level (the ``dark`` quantile of its pixels' darkest
 channel) lies above the darkest band's too, which a clear face's dark background or hair above the forehead,
-skin-like to the fit, does not show. Where no band rises ``least`` above the lowest in both, the crop is left
-(the skin's own variation, redder cheeks and lips, gives a smaller field on a clear face); otherwise the veil
-is subtracted and the crop stretched back so that its brightest (``top``) level is where the light's stretch
+skin-like to the fit, does not show. A veil's light is scattered wide: unless a band rises ``least`` above
+the lowest in both and a band next to it half as much (a reflection on a lens, a bright patch, is smaller than
+two bands), the crop is left (the skin's own variation, redder cheeks and lips, gives a smaller field on a
+clear face); otherwise the veil is subtracted and the crop stretched back so that its brightest (``top``) level is where the light's stretch
 keeps a face's.
 
 Conventions: RGB uint8 face crops (H, W, 3) of ``px`` crop pixels per face unit, the face frame's origin at
@@ -199,9 +200,20 @@ def _take_off(crop: np.ndarray, field_rows: np.ndarray, slope: float, xc: float,
     return out
 
 
+def _broad(rise: np.ndarray) -> bool:
+    """Whether a veil of the bands' rises (bands,) is broad enough to be one: :data:`VEIL` ``least`` or more in a
+    band and half that in a band next to it (a veil's light is scattered wide; a reflection on a lens or a bright
+    patch is smaller than two bands)."""
+    half = 0.5 * _LEAST
+    for j in np.flatnonzero(rise >= _LEAST):
+        if (j > 0 and rise[j - 1] >= half) or (j + 1 < len(rise) and rise[j + 1] >= half):
+            return True
+    return False
+
+
 def without_veil(crop: np.ndarray, px: float) -> np.ndarray:
     """The face crop (H, W, 3) uint8 with its veil (module docstring) taken off and stretched back; the crop
-    itself where the veil rises less than :data:`VEIL` ``least`` over the face (or cannot be measured)."""
+    itself where the veil is not broad (:func:`_broad`) or cannot be measured."""
     h, w = crop.shape[:2]
     fx0, fy0, fx1, fy1 = VEIL_FACE
     x0, x1 = max(int((fx0 - CROP_EXTENT[0]) * px), 0), min(int((fx1 - CROP_EXTENT[0]) * px), w)
@@ -217,7 +229,7 @@ def without_veil(crop: np.ndarray, px: float) -> np.ndarray:
     # off with a veil found but finds none). A veil lifts the darkest pixels under it with the rest: a band is
     # veiled only as far as its dark level too lies above the darkest band's (the camera's black, no veil).
     levels = levels - levels.min()
-    if float(np.minimum(levels, dark - dark.min()).max()) < _LEAST:
+    if not _broad(np.minimum(levels, dark - dark.min())):
         return crop
     centres = y0 + (np.arange(_BANDS) + 0.5) * (y1 - y0) / _BANDS
     rows = np.interp(np.arange(h, dtype=float), centres, levels)        # level beyond the first and last
