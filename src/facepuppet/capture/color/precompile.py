@@ -57,7 +57,7 @@ def _outline_inputs() -> dict:
 
 def _frame_work(part: str) -> None:
     """What the colour tracker compiles for a frame besides the outlines (Eq. 1 and the contrast, the eye
-    search, the skin test, the rectangles, the lid model, the filters and the head pose, the glare test, the
+    search, the skin test, the rectangles, the lid model, the filters and the head pose, the glare and veil tests, the
     alignment of the followed crop), or the snakes."""
     from facepuppet.capture.color.config import ColorTrackerConfig, LandmarkConfig
     from facepuppet.capture.color.tracker import ColorTracker
@@ -70,6 +70,9 @@ def _frame_work(part: str) -> None:
 
             w, h = tracker.crop_size
             glare_pixels(np.zeros((h, w, 3), np.uint8), tracker.feature_boxes[:2], 0, 0, 2, 2, 1.0)
+            from facepuppet.capture.color.veil import warmup as veil_warmup
+
+            veil_warmup((w, h))
             from facepuppet.capture.color.align import blur3, ecc_affine
 
             grey = np.zeros((h // 3, w // 3), np.float32)

@@ -32,7 +32,7 @@ import numpy as np
 from facepuppet._util.jit import INNER, KERNEL
 from facepuppet.capture.color.face import CROP_EXTENT
 
-__all__ = ["VEIL", "VEIL_FACE", "veil_rows", "without_veil"]
+__all__ = ["VEIL", "VEIL_FACE", "veil_rows", "warmup", "without_veil"]
 
 #: The veil's measure: name -> (value, unit, meaning).
 VEIL = {
@@ -40,7 +40,7 @@ VEIL = {
     "stride": (4, "pixels", "every this many rows and columns of the crop are measured"),
     "huber": (8.0, "8-bit levels", "a pixel off the fit by more than this weighs less (not skin)"),
     "iterations": (3, "fits", "least-squares fits, each reweighted by the last one's residuals"),
-    "least": (30.0, "8-bit levels", "a veil rising less than this over the face is left"),
+    "least": (60.0, "8-bit levels", "a veil rising less than this over the face is left"),
     "chroma": (10.0, "8-bit levels", "least red over blue of a pixel measured (skin's colour; a veil keeps it)"),
     "pixels": (8, "pixels", "fewest measured pixels of a band with a level of its own"),
     "dark": (0.05, "share", "of a band's pixels darker (darkest channel) than its dark level"),
@@ -236,3 +236,12 @@ def without_veil(crop: np.ndarray, px: float) -> np.ndarray:
     # The lowest level over the whole crop is no veil.
     low = float(rows.min() - abs(slope) * 0.5 * w)
     return _take_off(np.ascontiguousarray(crop), rows, float(slope), 0.5 * (x0 + x1 - 1), low, _TOP)
+
+
+def warmup(size: tuple[int, int]) -> None:
+    """Run the veil's kernels once on a blank crop of ``size`` (W, H) with the tracking types (numba compiles or
+    loads them; :mod:`~facepuppet.capture.color.precompile`)."""
+    w, h = size
+    crop = np.zeros((h, w, 3), np.uint8)
+    veil_rows(crop, 0, 0, w, h, _BANDS, _STRIDE, _HUBER, _ITERATIONS, _CHROMA, _PIXELS, _DARK, _LEAST)
+    _take_off(crop, np.zeros(h), 0.0, 0.5 * w, 0.0, _TOP)
