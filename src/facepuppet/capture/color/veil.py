@@ -17,8 +17,8 @@ channel) lies above the darkest band's too, which a clear face's dark background
 skin-like to the fit, does not show. A veil's light is scattered wide: unless a band rises ``least`` above
 the lowest in both and a band next to it half as much (a reflection on a lens, a bright patch, is smaller than
 two bands), the crop is left (the skin's own variation, redder cheeks and lips, gives a smaller field on a
-clear face); otherwise the veil is subtracted and the crop stretched back so that its brightest (``top``) level is where the light's stretch
-keeps a face's.
+clear face); otherwise the veil is subtracted and the crop stretched back so that its brightest (``top``)
+level is where the light's stretch keeps a face's.
 
 Conventions: RGB uint8 face crops (H, W, 3) of ``px`` crop pixels per face unit, the face frame's origin at
 :data:`~.face.CROP_EXTENT`; levels 8-bit.
