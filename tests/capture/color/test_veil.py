@@ -114,8 +114,15 @@ def test_skin_coloured_hair_without_lifted_black_is_no_veil():
 def test_a_bright_colourless_strip_one_band_tall_is_no_veil():
     x0, y0, x1, y1 = _part()
     span = (y1 - y0) / int(VEIL["bands"][0])
-    top, bottom = int(y0 + 3 * span) + 1, int(y0 + 4 * span) - 1     # within one band, below the eyes
+    top, bottom = int(np.ceil(y0 + 3 * span)), int(np.ceil(y0 + 4 * span))   # one whole band, below the eyes
     face = _face()
-    face[top:bottom] += 60.0                              # lifts the band's level and its black alike
+    face[top:bottom] += 80.0                              # lifts the band's level and its black alike
     crop = _u8(face)
+    # The band is fitted and rises above ``least`` in both its level and its black: only breadth rules it out.
+    ok, levels, dark, _, _ = veil_rows(crop, x0, y0, x1, y1, int(VEIL["bands"][0]), int(VEIL["stride"][0]),
+                                       float(VEIL["huber"][0]), int(VEIL["iterations"][0]),
+                                       float(VEIL["chroma"][0]), int(VEIL["pixels"][0]), float(VEIL["dark"][0]),
+                                       float(VEIL["least"][0]))
+    rise = np.minimum(levels - levels.min(), dark - dark.min())
+    assert ok and rise.max() >= float(VEIL["least"][0])
     assert without_veil(crop, PX) is crop
