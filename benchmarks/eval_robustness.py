@@ -158,8 +158,10 @@ def altered(rgb: np.ndarray, variant: str, rng: np.random.Generator, unit: float
     elif variant == "lowres":
         h, w = rgb.shape[:2]
         s = cv2.resize(rgb, (w * 2 // 5, h * 2 // 5), interpolation=cv2.INTER_AREA)
-        ok, jpeg = cv2.imencode(".jpg", s, [cv2.IMWRITE_JPEG_QUALITY, LOWRES_QUALITY])
-        return cv2.imdecode(jpeg, cv2.IMREAD_UNCHANGED)
+        # JPEG codes luma and subsampled chroma of BGR images (a camera's JPEG: RGB taken as BGR would code
+        # the wrong luma).
+        ok, jpeg = cv2.imencode(".jpg", cv2.cvtColor(s, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, LOWRES_QUALITY])
+        return cv2.cvtColor(cv2.imdecode(jpeg, cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
     elif variant == "backlit":
         glare = np.clip(np.linspace(1.0, 0.0, rgb.shape[0], dtype=np.float32) * 1.4 - 0.5, 0.0, 1.0)
         x = x * 0.5 + 255.0 * glare[:, None, None]
