@@ -92,10 +92,16 @@ def _passes(grey: np.ndarray, passes: int = len(FACE_SIZES)) -> tuple[np.ndarray
         f = min(1.0, WINDOW / (share * side))
         g = grey if f >= 1.0 else cv2.resize(grey, (max(1, round(w * f)), max(1, round(h * f))),
                                              interpolation=cv2.INTER_AREA)
-        g = cv2.equalizeHist(g)
         top = (int(larger * f * SCALE_STEP) + 1,) * 2 if larger else (0, 0)
-        found = cascade.detectMultiScale(g, scaleFactor=SCALE_STEP, minNeighbors=NEIGHBOURS,
-                                         minSize=(WINDOW, WINDOW), maxSize=top)
+        found = ()
+        # Equalised first (a dim or hazy face's contrast spread out), then as filmed: in a frame mostly of a
+        # bright, busy scene (wooden boards, a poster) the equalisation spends the grey levels on the scene and
+        # flattens the face.
+        for shown in (cv2.equalizeHist(g), g):
+            found = cascade.detectMultiScale(shown, scaleFactor=SCALE_STEP, minNeighbors=NEIGHBOURS,
+                                             minSize=(WINDOW, WINDOW), maxSize=top)
+            if len(found):
+                break
         if len(found):
             boxes = np.asarray(found, dtype=float) / f
             return boxes[np.argsort(-boxes[:, 2])][:MAX_FACES], k + 1
