@@ -31,16 +31,18 @@ from facepuppet.capture.color.lids import EYES
 from facepuppet.capture.curves import bezier_points
 from facepuppet.errors import FacepuppetError
 
-__all__ = ["EYE_STEPS", "EYE_LEAST", "OPENING", "OPENING_TABLE", "eye_centres", "darkness", "without_long_runs",
-           "dark_centres",
+__all__ = ["EYE_STEPS", "EYE_LEAST", "EYE_TALL", "EYE_TALL_LEVEL", "OPENING", "OPENING_TABLE", "eye_centres",
+           "darkness", "without_long_runs", "without_tall_runs", "dark_centres",
            "eye_opening_centres", "eye_centres_of",
            "calibrated_anchors", "shared_landmarker", "landmark_curves"]
 
 log = logging.getLogger(__name__)
 
 # Tuning constants of the eye search (eye_centres)
-EYE_STEPS = 3        # steps   mean-shift steps of the search from the anchors
-EYE_LEAST = 0.01     # C^2     least mean of C^2 over a window for it to hold an eye
+EYE_STEPS = 3         # steps       mean-shift steps of the search from the anchors
+EYE_LEAST = 0.01      # C^2         least mean of C^2 over a window for it to hold an eye
+EYE_TALL = 0.6        # face units  longest run of C down a column the search keeps (taller: beside the face)
+EYE_TALL_LEVEL = 0.3  # C           from which a pixel of C belongs to a run (:func:`without_tall_runs`)
 
 #: The eye opening's extent (eye_opening_centres): name -> (value, unit, meaning).
 OPENING = {
@@ -260,6 +262,33 @@ def without_long_runs(D: np.ndarray, level: float, wide: int) -> np.ndarray:
             if e - x > wide:
                 out[y, x:e] = 0.0
             x = e
+    return out
+
+
+@nb.njit(**KERNEL)
+def without_tall_runs(C: np.ndarray, level: float, tall: int) -> np.ndarray:
+    """A copy of ``C`` (H, W) float32 with the pixels of its runs down a column (consecutive pixels with
+    ``C >= level``) longer than ``tall`` pixels set to 0.
+
+    An eye's feature intensity reaches from the upper lashes to the lower lid, and a brow above it is parted
+    from it by the lid's skin; the hair or the background beside the face, lit against it, and a glasses rim's
+    side make taller lines of C, at the eye window's outer edge on a face a little too large or off centre,
+    which may not draw the eye search outward.
+    """
+    h, w = C.shape
+    out = C.copy()
+    for x in range(w):
+        y = 0
+        while y < h:
+            if C[y, x] < level:
+                y += 1
+                continue
+            e = y
+            while e < h and C[e, x] >= level:
+                e += 1
+            if e - y > tall:
+                out[y:e, x] = 0.0
+            y = e
     return out
 
 

@@ -24,7 +24,14 @@ import numpy as np
 
 from facepuppet.capture.color.acquire import NO_CORRECTION, Acquirer
 from facepuppet.capture.color.config import ColorTrackerConfig
-from facepuppet.capture.color.eye_anchors import OPENING_TABLE, eye_centres, eye_opening_centres
+from facepuppet.capture.color.eye_anchors import (
+    EYE_TALL,
+    EYE_TALL_LEVEL,
+    OPENING_TABLE,
+    eye_centres,
+    eye_opening_centres,
+    without_tall_runs,
+)
 from facepuppet.capture.color.face import (
     CROP_EXTENT,
     FEATURE_BOXES,
@@ -296,6 +303,8 @@ class ColorTracker:
         (:func:`~facepuppet.capture.color.eye_anchors.eye_centres`) with a trained one."""
         anchors = self._place.anchors_px if anchors is None else np.asarray(anchors, dtype=float)
         if self._eye_opening:
+            # The generic network's C lights the hair and the background beside the face as well.
+            C = without_tall_runs(C, EYE_TALL_LEVEL, int(round(EYE_TALL * self.config.measure.px)))
             found, eyes = eye_opening_centres(C, self._intensity.crop, self._cheek_boxes, anchors,
                                               *self._eye_window, float(self.config.measure.px), OPENING_TABLE, dark)
         else:
@@ -329,11 +338,20 @@ class ColorTracker:
         crop = without_glare(crop, self._cheek_boxes, self._eye_boxes, px)      # a lens's reflection: unknown
         skin = self._follow.skin = self._skin_ok(crop)
         C = self.intensity(crop)
-        eyes = self.eye_centres(C, dark=follow)
         # The eyes' correction of the followed frame (a similarity in crop pixels, as a, b, tx, ty), smoothed
-        # over frames: the alignment on the whole face is steady, the eye search noisier but unbiased.
+        # over frames: the alignment on the whole face is steady, the eye search noisier but unbiased. With the
+        # generic profile the search starts where the last correction's turn and shift put the eyes (its size
+        # left to the alignment: an eye search pulled outward would grow it without end); a trained profile's
+        # anchors are where its search lands when started on them (:mod:`.eye_anchors`), so it starts there.
         last_corr = correction if correction is not None else self._follow.correction
         smooth = follow and last_corr is not None
+        start = None
+        if smooth and self._eye_opening:
+            a0, b0, tx0, ty0 = last_corr.tolist()
+            R = np.array([[a0, b0], [-b0, a0]])
+            mid = place.anchors_px[:2].mean(axis=0)
+            start = (place.anchors_px - mid) @ (R / max(float(np.hypot(a0, b0)), 1e-9)) + mid @ R + [tx0, ty0]
+        eyes = self.eye_centres(C, start, dark=follow)
         corr = last_corr if smooth else np.array(NO_CORRECTION)
         if eyes is not None:
             S_eye = similarity_of_pairs(place.anchors_px[:2], eyes)
