@@ -1,5 +1,6 @@
 """A veil over a drawn face crop measured on the skin's colour and taken off: a veil falling from the forehead
-is found band by band and subtracted, a clear face (shaded, with dark features) and an even veil are left."""
+is found band by band and subtracted, an even veil is taken off down to the black of a clear face, and a clear
+face (shaded, with dark features) is left."""
 
 import cv2
 import numpy as np
@@ -54,8 +55,31 @@ def test_a_clear_shaded_face_is_left():
     assert without_veil(crop, PX) is crop
 
 
-def test_an_even_veil_is_left():
+def test_an_even_veil_is_taken_off_down_to_the_black_a_clear_face_keeps():
+    """An even veil of 90 levels over a face whose darkest feature (the eyes' blue, 30) then lies at 108: the
+    crop less the lift of its darkest band over ``black``, stretched by one gain."""
     crop = _u8(0.6 * _face() + 90.0)
+    out = without_veil(crop, PX)
+    assert out is not crop
+    x0, y0, x1, y1 = _part()
+    ok, _, dark, _, _ = veil_rows(crop, x0, y0, x1, y1, int(VEIL["bands"][0]), int(VEIL["stride"][0]),
+                                  float(VEIL["huber"][0]), int(VEIL["iterations"][0]), float(VEIL["chroma"][0]),
+                                  int(VEIL["pixels"][0]), float(VEIL["dark"][0]), float(VEIL["least"][0]))
+    even = dark.min() - VEIL["black"][0]
+    assert 40.0 <= even <= 50.0                                  # 0.6 x 30 + 90 = 108, less 60
+    # out = gain (crop - even) over the pixels not clipped: a line through (even, 0).
+    a, b = crop.astype(float).ravel(), out.astype(float).ravel()
+    keep = (b > 2) & (b < 253)
+    gain, icpt = np.polyfit(a[keep], b[keep], 1)
+    assert gain > 1.2
+    assert abs(-icpt / gain - even) < 1.5
+    # The eyes are back near the black of a clear face.
+    eye = out[int(_at(-0.5, 0.0)[1]), int(_at(-0.5, 0.0)[0])]
+    assert eye.min() < gain * (VEIL["black"][0] + 2.0)
+
+
+def test_a_slight_lift_of_the_black_is_left():
+    crop = _u8(0.9 * _face() + 25.0)                             # the eyes' blue at 52, under black
     assert without_veil(crop, PX) is crop
 
 

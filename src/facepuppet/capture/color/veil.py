@@ -18,7 +18,11 @@ skin-like to the fit, does not show. A veil's light is scattered wide: unless a 
 the lowest in both and a band next to it half as much (a reflection on a lens, a bright patch, is smaller than
 two bands), the crop is left (the skin's own variation, redder cheeks and lips, gives a smaller field on a
 clear face); otherwise the veil is subtracted and the crop stretched back so that its brightest (``top``)
-level is where the light's stretch keeps a face's.
+level is where the light's stretch keeps a face's. A veil even over the face (haze, a bright scene scattered
+in the lens) lifts the black of every band alike, which the light's stretch (a gain) cannot take off: on a
+clear face each band of rows holding the eyes, nostrils or mouth has its darkest pixels (pupils, lashes,
+nostrils, the mouth's opening) well under ``black``; the darkest band's dark level above ``black`` is taken off
+everywhere, with the band veil if there is one, and the crop stretched back the same way.
 
 Conventions: RGB uint8 face crops (H, W, 3) of ``px`` crop pixels per face unit, the face frame's origin at
 :data:`~.face.CROP_EXTENT`; levels 8-bit.
@@ -45,13 +49,15 @@ VEIL = {
     "pixels": (8, "pixels", "fewest measured pixels of a band with a level of its own"),
     "dark": (0.05, "share", "of a band's pixels darker (darkest channel) than its dark level"),
     "top": (230.0, "8-bit level", "the crop's 99th-percentile level once the veil is off"),
+    "black": (60.0, "8-bit level", "the darkest band's dark level above this is an even veil"),
 }
 #: The part of the crop the veil is measured on (face units x0, y0, x1, y1): the face within its outline.
 VEIL_FACE = (-0.95, -0.8, 0.95, 1.7)
 
 
 _BANDS, _STRIDE, _ITERATIONS, _PIXELS = (int(VEIL[k][0]) for k in ("bands", "stride", "iterations", "pixels"))
-_HUBER, _LEAST, _TOP, _CHROMA, _DARK = (float(VEIL[k][0]) for k in ("huber", "least", "top", "chroma", "dark"))
+_HUBER, _LEAST, _TOP, _CHROMA, _DARK, _BLACK = (float(VEIL[k][0]) for k in ("huber", "least", "top", "chroma",
+                                                                           "dark", "black"))
 
 
 @nb.njit(**INNER)
@@ -213,7 +219,8 @@ def _broad(rise: np.ndarray) -> bool:
 
 def without_veil(crop: np.ndarray, px: float) -> np.ndarray:
     """The face crop (H, W, 3) uint8 with its veil (module docstring) taken off and stretched back; the crop
-    itself where the veil is not broad (:func:`_broad`) or cannot be measured."""
+    itself where no band veil is broad (:func:`_broad`) or can be measured and no band's black is lifted over
+    :data:`VEIL` ``black``."""
     h, w = crop.shape[:2]
     fx0, fy0, fx1, fy1 = VEIL_FACE
     x0, x1 = max(int((fx0 - CROP_EXTENT[0]) * px), 0), min(int((fx1 - CROP_EXTENT[0]) * px), w)
@@ -222,20 +229,23 @@ def without_veil(crop: np.ndarray, px: float) -> np.ndarray:
         return crop
     ok, levels, dark, slope, _ = veil_rows(crop, x0, y0, x1, y1, _BANDS, _STRIDE, _HUBER, _ITERATIONS, _CHROMA,
                                            _PIXELS, _DARK, _LEAST)
-    if not ok:
+    # The black under every band lifted: an even veil.
+    even = max(float(dark.min()) - _BLACK, 0.0)
+    if ok:
+        # Between the bands' middle rows the veil runs linearly from one level to the next: over the face it
+        # rises from the lowest band level to the highest (the slope across, which a face's shading also gives,
+        # is taken off with a veil found but finds none). A veil lifts the darkest pixels under it with the rest:
+        # a band is veiled only as far as its dark level too lies above the darkest band's.
+        levels = levels - levels.min()
+        if _broad(np.minimum(levels, dark - dark.min())):
+            centres = y0 + (np.arange(_BANDS) + 0.5) * (y1 - y0) / _BANDS
+            rows = np.interp(np.arange(h, dtype=float), centres, levels)        # level beyond the first and last
+            # The lowest level over the whole crop is no veil (but for the even veil).
+            low = float(rows.min() - abs(slope) * 0.5 * w) - even
+            return _take_off(np.ascontiguousarray(crop), rows, float(slope), 0.5 * (x0 + x1 - 1), low, _TOP)
+    if even <= 0.0:
         return crop
-    # Between the bands' middle rows the veil runs linearly from one level to the next: over the face it rises
-    # from the lowest band level to the highest (the slope across, which a face's shading also gives, is taken
-    # off with a veil found but finds none). A veil lifts the darkest pixels under it with the rest: a band is
-    # veiled only as far as its dark level too lies above the darkest band's (the camera's black, no veil).
-    levels = levels - levels.min()
-    if not _broad(np.minimum(levels, dark - dark.min())):
-        return crop
-    centres = y0 + (np.arange(_BANDS) + 0.5) * (y1 - y0) / _BANDS
-    rows = np.interp(np.arange(h, dtype=float), centres, levels)        # level beyond the first and last
-    # The lowest level over the whole crop is no veil.
-    low = float(rows.min() - abs(slope) * 0.5 * w)
-    return _take_off(np.ascontiguousarray(crop), rows, float(slope), 0.5 * (x0 + x1 - 1), low, _TOP)
+    return _take_off(np.ascontiguousarray(crop), np.full(h, even), 0.0, 0.5 * w, 0.0, _TOP)
 
 
 def warmup(size: tuple[int, int]) -> None:
