@@ -7,7 +7,7 @@ import numpy as np
 
 from facepuppet.capture.color.face import CROP_EXTENT, FEATURE_BOXES, box_in_crop
 from facepuppet.capture.color.glare import without_glare
-from facepuppet.capture.color.veil import VEIL, VEIL_FACE, veil_rows, without_veil
+from facepuppet.capture.color.veil import VEIL, VEIL_FACE, clear_band_levels, veil_rows, without_veil
 
 PX = 48.0
 W, H = int(round((CROP_EXTENT[2] - CROP_EXTENT[0]) * PX)), int(round((CROP_EXTENT[3] - CROP_EXTENT[1]) * PX))
@@ -150,3 +150,39 @@ def test_a_bright_colourless_strip_one_band_tall_is_no_veil():
     rise = np.minimum(levels - levels.min(), dark - dark.min())
     assert ok and rise.max() >= float(VEIL["least"][0])
     assert without_veil(crop, PX) is crop
+
+
+def _fit(crop):
+    x0, y0, x1, y1 = _part()
+    return veil_rows(crop, x0, y0, x1, y1, int(VEIL["bands"][0]), int(VEIL["stride"][0]), float(VEIL["huber"][0]),
+                     int(VEIL["iterations"][0]), float(VEIL["chroma"][0]), int(VEIL["pixels"][0]),
+                     float(VEIL["dark"][0]), float(VEIL["least"][0]))
+
+
+def test_the_clear_bands_give_the_skins_blue_share_and_the_veiled_bands_their_levels():
+    crop = _u8(0.6 * _face() + _veil()[..., None])
+    x0, y0, x1, y1 = _part()
+    bands = int(VEIL["bands"][0])
+    dark = _fit(crop)[2]
+    ok, levels, k = clear_band_levels(crop, x0, y0, x1, y1, bands, int(VEIL["stride"][0]), float(VEIL["chroma"][0]),
+                                      int(VEIL["pixels"][0]), dark, float(VEIL["clear"][0]))
+    assert ok
+    assert abs(k - SKIN[2] / (SKIN[0] - SKIN[2])) < 0.05 * SKIN[2] / (SKIN[0] - SKIN[2])
+    edges = y0 + np.arange(bands + 1) * (y1 - y0) / bands
+    truth = np.array([_veil()[int(a):int(b), 0].mean() for a, b in zip(edges[:-1], edges[1:], strict=True)])
+    np.testing.assert_allclose(levels - levels.min(), truth - truth.min(), atol=8.0)
+
+
+def test_a_veil_the_joint_fit_cannot_separate_is_taken_off_on_the_clear_bands_share(monkeypatch):
+    """Where the joint fit's blue share comes out not positive (a veil changing within the bands as much as
+    between them), the levels read with the clear bands' share take the veil off all the same."""
+    import facepuppet.capture.color.veil as veil
+
+    crop = _u8(0.6 * _face() + _veil()[..., None])
+    ok, levels, dark, slope, _ = _fit(crop)
+    monkeypatch.setattr(veil, "veil_rows", lambda *a: (False, levels, dark, slope, -1.0))
+    out = without_veil(crop, PX).astype(float)
+    fx, fy = (int(v) for v in _at(0.0, -0.65))
+    patch = out[fy - 2:fy + 3, fx - 2:fx + 3].reshape(-1, 3).mean(axis=0)
+    ratio = lambda p: (p[0] - p[2]) / p[2]                           # noqa: E731
+    assert abs(ratio(patch) - ratio(SKIN)) < 0.25 * ratio(SKIN)

@@ -22,7 +22,10 @@ level is where the light's stretch keeps a face's. A veil even over the face (ha
 in the lens) lifts the black of every band alike, which the light's stretch (a gain) cannot take off: on a
 clear face each band of rows holding the eyes, nostrils or mouth has its darkest pixels (pupils, lashes,
 nostrils, the mouth's opening) well under ``black``; the darkest band's dark level above ``black`` is taken off
-everywhere, with the band veil if there is one, and the crop stretched back the same way.
+everywhere, with the band veil if there is one, and the crop stretched back the same way. Where the joint fit
+cannot tell a veil from the shading (its ``k`` not positive: a veil changing within the bands as much as between
+them) but the black rises under some bands, ``k`` is read on the bands whose black is the camera's (no veil
+there) and each band's level is the median of ``B - k (R - B)`` over its skin (:func:`clear_band_levels`).
 
 Conventions: RGB uint8 face crops (H, W, 3) of ``px`` crop pixels per face unit, the face frame's origin at
 :data:`~.face.CROP_EXTENT`; levels 8-bit.
@@ -36,7 +39,7 @@ import numpy as np
 from facepuppet._util.jit import INNER, KERNEL
 from facepuppet.capture.color.face import CROP_EXTENT
 
-__all__ = ["VEIL", "VEIL_FACE", "veil_rows", "warmup", "without_veil"]
+__all__ = ["VEIL", "VEIL_FACE", "clear_band_levels", "veil_rows", "warmup", "without_veil"]
 
 #: The veil's measure: name -> (value, unit, meaning).
 VEIL = {
@@ -50,14 +53,16 @@ VEIL = {
     "dark": (0.05, "share", "of a band's pixels darker (darkest channel) than its dark level"),
     "top": (230.0, "8-bit level", "the crop's 99th-percentile level once the veil is off"),
     "black": (60.0, "8-bit level", "the darkest band's dark level above this is an even veil"),
+    "clear": (10.0, "8-bit levels", "a band whose dark level lies this near the darkest band's has no veil"),
 }
 #: The part of the crop the veil is measured on (face units x0, y0, x1, y1): the face within its outline.
 VEIL_FACE = (-0.95, -0.8, 0.95, 1.7)
 
 
 _BANDS, _STRIDE, _ITERATIONS, _PIXELS = (int(VEIL[k][0]) for k in ("bands", "stride", "iterations", "pixels"))
-_HUBER, _LEAST, _TOP, _CHROMA, _DARK, _BLACK = (float(VEIL[k][0]) for k in ("huber", "least", "top", "chroma",
-                                                                           "dark", "black"))
+_HUBER, _LEAST, _TOP, _CHROMA, _DARK, _BLACK, _CLEAR = (float(VEIL[k][0]) for k in ("huber", "least", "top",
+                                                                                   "chroma", "dark", "black",
+                                                                                   "clear"))
 
 
 @nb.njit(**INNER)
@@ -171,6 +176,70 @@ def veil_rows(crop: np.ndarray, x0: int, y0: int, x1: int, y1: int, bands: int, 
 
 
 @nb.njit(**KERNEL)
+def clear_band_levels(crop: np.ndarray, x0: int, y0: int, x1: int, y1: int, bands: int, stride: int, chroma: float,
+                      least_pixels: int, dark: np.ndarray, clear: float):
+    """The bands' veil levels with the skin's blue share ``k`` read where there is no veil: on the bands whose
+    dark level lies within ``clear`` of the darkest band's (the camera's black), ``k`` is the median of blue over
+    red minus blue of the skin-coloured pixels sampled as in :func:`veil_rows`; each band's level is then the
+    median of ``B - k (R - B)`` over its skin-coloured pixels (a band of fewer than ``least_pixels`` takes its
+    nearest measured neighbour's). For a veil the joint fit cannot separate from the shading (its ``k`` not
+    positive: a veil that changes within the bands as much as between them).
+
+    Returns (ok, levels (bands,) float64, k): ok False where the clear bands hold fewer than ``least_pixels``
+    skin-coloured pixels.
+    """
+    span = max(y1 - y0, 1)
+    floor = dark.min()
+    ny, nx = (y1 - y0 + stride - 1) // stride, (x1 - x0 + stride - 1) // stride
+    ratios = np.empty(ny * nx)
+    n = 0
+    for i in range(ny):
+        y = y0 + i * stride
+        band = min((y - y0) * bands // span, bands - 1)
+        if dark[band] > floor + clear:
+            continue
+        for j in range(nx):
+            x = x0 + j * stride
+            r, g, b = crop[y, x, 0], crop[y, x, 1], crop[y, x, 2]
+            if _skin_coloured(r, g, b, chroma):
+                ratios[n] = float(b) / (float(r) - float(b))
+                n += 1
+    levels = np.full(bands, np.nan)
+    if n < least_pixels:
+        return False, levels, 0.0
+    k = np.median(ratios[:n])
+    per = np.empty(ny * nx)
+    cnt = np.zeros(bands, np.int64)
+    for band in range(bands):
+        m = 0
+        for i in range(ny):
+            y = y0 + i * stride
+            if min((y - y0) * bands // span, bands - 1) != band:
+                continue
+            for j in range(nx):
+                x = x0 + j * stride
+                r, g, b = crop[y, x, 0], crop[y, x, 1], crop[y, x, 2]
+                if _skin_coloured(r, g, b, chroma):
+                    per[m] = float(b) - k * (float(r) - float(b))
+                    m += 1
+        cnt[band] = m
+        if m >= least_pixels:
+            levels[band] = np.median(per[:m])
+    out = levels.copy()
+    for j in range(bands):
+        if cnt[j] < least_pixels:
+            best = -1
+            for d in range(1, bands):
+                for m in (j - d, j + d):
+                    if best < 0 and 0 <= m < bands and cnt[m] >= least_pixels:
+                        best = m
+            if best < 0:
+                return False, levels, k
+            out[j] = levels[best]
+    return True, out, k
+
+
+@nb.njit(**KERNEL)
 def _take_off(crop: np.ndarray, field_rows: np.ndarray, slope: float, xc: float, low: float, top: float) -> np.ndarray:
     """The crop less the veil ``field_rows[y] + slope (x - xc) - low`` (clipped at 0), stretched so that the
     99th-percentile level of its every other row and column is ``top``."""
@@ -227,10 +296,12 @@ def without_veil(crop: np.ndarray, px: float) -> np.ndarray:
     y0, y1 = max(int((fy0 - CROP_EXTENT[1]) * px), 0), min(int((fy1 - CROP_EXTENT[1]) * px), h)
     if x1 - x0 < 4 or y1 - y0 < 4:
         return crop
-    ok, levels, dark, slope, _ = veil_rows(crop, x0, y0, x1, y1, _BANDS, _STRIDE, _HUBER, _ITERATIONS, _CHROMA,
+    ok, levels, dark, slope, k = veil_rows(crop, x0, y0, x1, y1, _BANDS, _STRIDE, _HUBER, _ITERATIONS, _CHROMA,
                                            _PIXELS, _DARK, _LEAST)
     # The black under every band lifted: an even veil.
     even = max(float(dark.min()) - _BLACK, 0.0)
+    if not ok and k <= 0.0 and dark.max() - dark.min() >= _LEAST:
+        ok, levels, _ = clear_band_levels(crop, x0, y0, x1, y1, _BANDS, _STRIDE, _CHROMA, _PIXELS, dark, _CLEAR)
     if ok:
         # Between the bands' middle rows the veil runs linearly from one level to the next: over the face it
         # rises from the lowest band level to the highest (the slope across, which a face's shading also gives,
@@ -254,4 +325,5 @@ def warmup(size: tuple[int, int]) -> None:
     w, h = size
     crop = np.zeros((h, w, 3), np.uint8)
     veil_rows(crop, 0, 0, w, h, _BANDS, _STRIDE, _HUBER, _ITERATIONS, _CHROMA, _PIXELS, _DARK, _LEAST)
+    clear_band_levels(crop, 0, 0, w, h, _BANDS, _STRIDE, _CHROMA, _PIXELS, np.zeros(_BANDS), _CLEAR)
     _take_off(crop, np.zeros(h), 0.0, 0.5 * w, 0.0, _TOP)
