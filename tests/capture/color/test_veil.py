@@ -186,3 +186,22 @@ def test_a_veil_the_joint_fit_cannot_separate_is_taken_off_on_the_clear_bands_sh
     patch = out[fy - 2:fy + 3, fx - 2:fx + 3].reshape(-1, 3).mean(axis=0)
     ratio = lambda p: (p[0] - p[2]) / p[2]                           # noqa: E731
     assert abs(ratio(patch) - ratio(SKIN)) < 0.25 * ratio(SKIN)
+
+
+def test_a_black_lifted_where_the_skins_blue_is_not_is_no_veil(monkeypatch):
+    """The levels read on the clear bands' share must rise with the dark levels over the bands: a dark stage over
+    the top band and a skin-coloured hand over the lower face's dark features lift the black of some bands and
+    not their skin's blue (the bands of such a crop of performer_b on a stage, as measured)."""
+    import facepuppet.capture.color.veil as veil
+
+    crop = _u8(_face())
+    levels = np.array([0.0, -50.0, -110.0, -102.0, -163.0, -106.0, -57.0])
+    dark = np.array([3.0, 141.0, 118.0, 123.0, 47.0, 120.0, 120.0])
+    # Broad to the breadth rule: without the test of rising together it would be taken off.
+    assert veil._broad(np.minimum(levels - levels.min(), dark - dark.min()))
+    monkeypatch.setattr(veil, "veil_rows", lambda *a: (False, np.full(7, np.nan), dark, 0.0, -1.0))
+    monkeypatch.setattr(veil, "clear_band_levels", lambda *a: (True, levels, 3.5))
+    assert without_veil(crop, PX) is crop
+    # The same dark levels with levels rising alongside them: a veil, taken off.
+    monkeypatch.setattr(veil, "clear_band_levels", lambda *a: (True, dark - 20.0, 1.1))
+    assert without_veil(crop, PX) is not crop

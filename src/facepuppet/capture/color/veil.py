@@ -25,7 +25,8 @@ nostrils, the mouth's opening) well under ``black``; the darkest band's dark lev
 everywhere, with the band veil if there is one, and the crop stretched back the same way. Where the joint fit
 cannot tell a veil from the shading (its ``k`` not positive: a veil changing within the bands as much as between
 them) but the black rises under some bands, ``k`` is read on the bands whose black is the camera's (no veil
-there) and each band's level is the median of ``B - k (R - B)`` over its skin (:func:`clear_band_levels`).
+there) and each band's level is the median of ``B - k (R - B)`` over its skin (:func:`clear_band_levels`), taken
+only where those levels rise over the bands with the dark levels (correlation ``together``).
 
 Conventions: RGB uint8 face crops (H, W, 3) of ``px`` crop pixels per face unit, the face frame's origin at
 :data:`~.face.CROP_EXTENT`; levels 8-bit.
@@ -54,15 +55,16 @@ VEIL = {
     "top": (230.0, "8-bit level", "the crop's 99th-percentile level once the veil is off"),
     "black": (60.0, "8-bit level", "the darkest band's dark level above this is an even veil"),
     "clear": (10.0, "8-bit levels", "a band whose dark level lies this near the darkest band's has no veil"),
+    "together": (0.8, "correlation", "least correlation over the bands of the levels read on the clear bands' "
+                 "share with the dark levels"),
 }
 #: The part of the crop the veil is measured on (face units x0, y0, x1, y1): the face within its outline.
 VEIL_FACE = (-0.95, -0.8, 0.95, 1.7)
 
 
 _BANDS, _STRIDE, _ITERATIONS, _PIXELS = (int(VEIL[k][0]) for k in ("bands", "stride", "iterations", "pixels"))
-_HUBER, _LEAST, _TOP, _CHROMA, _DARK, _BLACK, _CLEAR = (float(VEIL[k][0]) for k in ("huber", "least", "top",
-                                                                                   "chroma", "dark", "black",
-                                                                                   "clear"))
+_HUBER, _LEAST, _TOP, _CHROMA, _DARK, _BLACK, _CLEAR, _TOGETHER = (
+    float(VEIL[k][0]) for k in ("huber", "least", "top", "chroma", "dark", "black", "clear", "together"))
 
 
 @nb.njit(**INNER)
@@ -302,6 +304,10 @@ def without_veil(crop: np.ndarray, px: float) -> np.ndarray:
     even = max(float(dark.min()) - _BLACK, 0.0)
     if not ok and k <= 0.0 and dark.max() - dark.min() >= _LEAST:
         ok, levels, _ = clear_band_levels(crop, x0, y0, x1, y1, _BANDS, _STRIDE, _CHROMA, _PIXELS, dark, _CLEAR)
+        # A veil lifts a band's black as it lifts its skin's blue: the two rise together over the bands (a dark
+        # scene beside the face, a hand over it, lift one and not the other).
+        ok = ok and np.std(levels) > 0.0 and np.std(dark) > 0.0 and \
+            float(np.corrcoef(levels, dark)[0, 1]) >= _TOGETHER
     if ok:
         # Between the bands' middle rows the veil runs linearly from one level to the next: over the face it
         # rises from the lowest band level to the highest (the slope across, which a face's shading also gives,
