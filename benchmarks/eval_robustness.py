@@ -39,7 +39,7 @@ The bars of the shared clips are NME <= 0.05, jitter ratio <= 1.5, coverage >= 0
 Run: ``python benchmarks/eval_robustness.py [--clips performer_a performer_c] [--variants dim warm noisy small
 face80 cool rolled mirrored portrait darker lowres backlit haze wood beige skin_object poster stage_hand]
 [--assets PATH] [--jobs 2]``
-(about a minute per copy of a or c on one core, MediaPipe's reference included; ``performer_b_exaggerated`` is
+(about 20 s per copy of a or c on one core, MediaPipe's reference included; ``performer_b_exaggerated`` is
 three times as long).
 """
 
