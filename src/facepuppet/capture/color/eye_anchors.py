@@ -276,19 +276,22 @@ def without_tall_runs(C: np.ndarray, level: float, tall: int) -> np.ndarray:
     which may not draw the eye search outward.
     """
     h, w = C.shape
+    # Row by row (the array's own order): each pixel's run length so far from the top, then, from the bottom,
+    # the whole length of the run it belongs to (its last row's count).
+    run = np.zeros((h, w), np.int32)
+    for y in range(h):
+        for x in range(w):
+            if C[y, x] >= level:
+                run[y, x] = run[y - 1, x] + 1 if y > 0 else 1
     out = C.copy()
-    for x in range(w):
-        y = 0
-        while y < h:
-            if C[y, x] < level:
-                y += 1
-                continue
-            e = y
-            while e < h and C[e, x] >= level:
-                e += 1
-            if e - y > tall:
-                out[y:e, x] = 0.0
-            y = e
+    for y in range(h - 2, -1, -1):
+        for x in range(w):
+            if run[y, x] > 0 and run[y + 1, x] > 0:
+                run[y, x] = run[y + 1, x]
+    for y in range(h):
+        for x in range(w):
+            if run[y, x] > tall:
+                out[y, x] = 0.0
     return out
 
 
