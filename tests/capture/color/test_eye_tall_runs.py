@@ -94,3 +94,18 @@ def test_the_eye_search_starts_where_the_last_correction_put_the_eyes(assets):
         got = tracker.measure(moved, frame, follow=True, gain=1.0, outline=False, correction=corr)
         off[name] = float(np.linalg.norm(got.frame.origin - truth)) / frame.unit
     assert off["seeded"] < 0.05 and off["anchors"] > 0.2, off
+
+
+def test_the_search_starts_from_the_correction_without_its_scale():
+    from facepuppet.capture.color.tracker import _turned_and_shifted
+
+    anchors = np.array([[40.0, 50.0], [80.0, 50.0], [60.0, 90.0]])
+    angle, scale, shift = np.radians(10.0), 1.2, np.array([3.0, -2.0])
+    a, b = scale * np.cos(angle), scale * np.sin(angle)
+    got = _turned_and_shifted(anchors, np.array([a, b, *shift]))
+    # The similarity's image of the eyes' midpoint, and the anchors turned about it at their own size.
+    mid = anchors[:2].mean(axis=0)
+    S = np.array([[a, -b], [b, a]])
+    R = S / scale
+    np.testing.assert_allclose(got, (anchors - mid) @ R.T + S @ mid + shift, atol=1e-9)
+    np.testing.assert_allclose(np.linalg.norm(got[1] - got[0]), 40.0, atol=1e-9)

@@ -345,12 +345,7 @@ class ColorTracker:
         # anchors are where its search lands when started on them (:mod:`.eye_anchors`), so it starts there.
         last_corr = correction if correction is not None else self._follow.correction
         smooth = follow and last_corr is not None
-        start = None
-        if smooth and self._eye_opening:
-            a0, b0, tx0, ty0 = last_corr.tolist()
-            R = np.array([[a0, b0], [-b0, a0]])
-            mid = place.anchors_px[:2].mean(axis=0)
-            start = (place.anchors_px - mid) @ (R / max(float(np.hypot(a0, b0)), 1e-9)) + mid @ R + [tx0, ty0]
+        start = _turned_and_shifted(place.anchors_px, last_corr) if smooth and self._eye_opening else None
         eyes = self.eye_centres(C, start, dark=follow)
         corr = last_corr if smooth else np.array(NO_CORRECTION)
         if eyes is not None:
@@ -472,6 +467,16 @@ class ColorTracker:
         fol.skin_found = self._skin_ok(best.seen[0])
         fol.score = None
         return best
+
+
+def _turned_and_shifted(anchors: np.ndarray, correction: np.ndarray) -> np.ndarray:
+    """The anchors (N, 2) crop pixels moved by the eye correction ``correction`` (4,) (a, b, tx, ty: the similarity
+    [[a, -b, tx], [b, a, ty]]) without its scale: turned by its angle about the eye anchors' midpoint, which goes
+    where the correction takes it."""
+    a, b, tx, ty = (float(v) for v in correction)
+    rot = np.array([[a, b], [-b, a]])                       # row vectors: p @ rot is the similarity's linear part
+    mid = anchors[:2].mean(axis=0)
+    return (anchors - mid) @ (rot / max(float(np.hypot(a, b)), 1e-9)) + mid @ rot + [tx, ty]
 
 
 def _layout_shift(layout: np.ndarray) -> dict[str, np.ndarray]:
