@@ -272,8 +272,8 @@ def without_tall_runs(C: np.ndarray, level: float, tall: int) -> np.ndarray:
 
     An eye's feature intensity reaches from the upper lashes to the lower lid, and a brow above it is parted
     from it by the lid's skin; the hair or the background beside the face, lit against it, and a glasses rim's
-    side make taller lines of C, at the eye window's outer edge on a face a little too large or off centre,
-    which may not draw the eye search outward.
+    side make taller lines of C, at the eye window's outer edge on a face a little too large or off centre; they
+    are left out so that they do not draw the eye search outward.
     """
     h, w = C.shape
     # Row by row (the array's own order): each pixel's run length so far from the top, then, from the bottom,

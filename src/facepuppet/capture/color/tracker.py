@@ -299,8 +299,10 @@ class ColorTracker:
         """Eye centres (2, 2) in crop pixels of the contrast C (H, W) of the crop last transformed
         (:meth:`intensity`), near ``anchors`` (>= 2, 2) (default the expected anchors), or None: by the eye's
         opening (:func:`~facepuppet.capture.color.eye_anchors.eye_opening_centres`, its height by the darkness
-        with ``dark``) with the generic profile, by the mean shift its anchors were learnt with
-        (:func:`~facepuppet.capture.color.eye_anchors.eye_centres`) with a trained one."""
+        with ``dark``) on C without its tall runs down a column
+        (:func:`~facepuppet.capture.color.eye_anchors.without_tall_runs`) with the generic profile, by the mean
+        shift its anchors were learnt with (:func:`~facepuppet.capture.color.eye_anchors.eye_centres`) with a
+        trained one."""
         anchors = self._place.anchors_px if anchors is None else np.asarray(anchors, dtype=float)
         if self._eye_opening:
             # The generic network's C lights the hair and the background beside the face as well.

@@ -23,8 +23,8 @@ in the lens) lifts the black of every band alike, which the light's stretch (a g
 clear face each band of rows holding the eyes, nostrils or mouth has its darkest pixels (pupils, lashes,
 nostrils, the mouth's opening) well under ``black``; the darkest band's dark level above ``black`` is taken off
 everywhere, with the band veil if there is one, and the crop stretched back the same way. Where the joint fit
-cannot tell a veil from the shading (its ``k`` not positive: a veil changing within the bands as much as between
-them) but the black rises under some bands, ``k`` is read on the bands whose black is the camera's (no veil
+cannot tell a veil from the shading (its ``k`` not positive, or no spread of red minus blue to fit) but the black
+rises under some bands, ``k`` is read on the bands whose black is the camera's (no veil
 there) and each band's level is the median of ``B - k (R - B)`` over its skin (:func:`clear_band_levels`), taken
 only where those levels rise over the bands with the dark levels (correlation ``together``).
 
@@ -184,11 +184,11 @@ def clear_band_levels(crop: np.ndarray, x0: int, y0: int, x1: int, y1: int, band
     dark level lies within ``clear`` of the darkest band's (the camera's black), ``k`` is the median of blue over
     red minus blue of the skin-coloured pixels sampled as in :func:`veil_rows`; each band's level is then the
     median of ``B - k (R - B)`` over its skin-coloured pixels (a band of fewer than ``least_pixels`` takes its
-    nearest measured neighbour's). For a veil the joint fit cannot separate from the shading (its ``k`` not
-    positive: a veil that changes within the bands as much as between them).
+    nearest measured neighbour's). It serves where the joint fit cannot tell a veil from the shading (its ``k``
+    not positive, or no spread of red minus blue to fit it on); it has no slope across.
 
-    Returns (ok, levels (bands,) float64, k): ok False where the clear bands hold fewer than ``least_pixels``
-    skin-coloured pixels.
+    Returns (ok, levels (bands,) float64, k): ok False where the clear bands, or all the bands, hold fewer than
+    ``least_pixels`` skin-coloured pixels.
     """
     span = max(y1 - y0, 1)
     floor = dark.min()
@@ -290,20 +290,22 @@ def _broad(rise: np.ndarray) -> bool:
 
 def without_veil(crop: np.ndarray, px: float) -> np.ndarray:
     """The face crop (H, W, 3) uint8 with its veil (module docstring) taken off and stretched back; the crop
-    itself where no band veil is broad (:func:`_broad`) or can be measured and no band's black is lifted over
-    :data:`VEIL` ``black``."""
+    itself where no band veil is broad (:func:`_broad`) or can be measured and the darkest band's black lies at
+    or under :data:`VEIL` ``black``."""
     h, w = crop.shape[:2]
     fx0, fy0, fx1, fy1 = VEIL_FACE
     x0, x1 = max(int((fx0 - CROP_EXTENT[0]) * px), 0), min(int((fx1 - CROP_EXTENT[0]) * px), w)
     y0, y1 = max(int((fy0 - CROP_EXTENT[1]) * px), 0), min(int((fy1 - CROP_EXTENT[1]) * px), h)
     if x1 - x0 < 4 or y1 - y0 < 4:
         return crop
-    ok, levels, dark, slope, k = veil_rows(crop, x0, y0, x1, y1, _BANDS, _STRIDE, _HUBER, _ITERATIONS, _CHROMA,
+    ok, levels, dark, slope, _ = veil_rows(crop, x0, y0, x1, y1, _BANDS, _STRIDE, _HUBER, _ITERATIONS, _CHROMA,
                                            _PIXELS, _DARK, _LEAST)
-    # The black under every band lifted: an even veil.
+    # The darkest band's black lifted: an even veil.
     even = max(float(dark.min()) - _BLACK, 0.0)
-    if not ok and k <= 0.0 and dark.max() - dark.min() >= _LEAST:
+    if not ok and dark.max() - dark.min() >= _LEAST:
+        # The joint fit failed where the black rises: the levels on the clear bands' blue share, no slope across.
         ok, levels, _ = clear_band_levels(crop, x0, y0, x1, y1, _BANDS, _STRIDE, _CHROMA, _PIXELS, dark, _CLEAR)
+        slope = 0.0
         # A veil lifts a band's black as it lifts its skin's blue: the two rise together over the bands (a dark
         # scene beside the face, a hand over it, lift one and not the other).
         ok = ok and np.std(levels) > 0.0 and np.std(dark) > 0.0 and \
