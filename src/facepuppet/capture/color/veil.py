@@ -165,16 +165,7 @@ def veil_rows(crop: np.ndarray, x0: int, y0: int, x1: int, y1: int, bands: int, 
         for j in range(bands):
             if cnt[j] >= least_pixels:
                 levels[j] = (sb[j] - k * sa[j] - s * sx[j]) / sw[j]
-    out = levels.copy()
-    for j in range(bands):
-        if cnt[j] < least_pixels:
-            best = -1
-            for d in range(1, bands):
-                for m in (j - d, j + d):
-                    if best < 0 and 0 <= m < bands and cnt[m] >= least_pixels:
-                        best = m
-            out[j] = levels[best]
-    return k > 0.0, out, dark, s, k
+    return k > 0.0, _from_neighbours(levels, cnt, least_pixels)[1], dark, s, k
 
 
 @nb.njit(**KERNEL)
@@ -191,42 +182,43 @@ def clear_band_levels(crop: np.ndarray, x0: int, y0: int, x1: int, y1: int, band
     ``least_pixels`` skin-coloured pixels.
     """
     span = max(y1 - y0, 1)
-    floor = dark.min()
     ny, nx = (y1 - y0 + stride - 1) // stride, (x1 - x0 + stride - 1) // stride
-    ratios = np.empty(ny * nx)
+    # The skin-coloured pixels sampled: red minus blue, blue, band.
+    rb = np.empty(ny * nx)
+    blue = np.empty(ny * nx)
+    of = np.empty(ny * nx, np.int64)
     n = 0
     for i in range(ny):
         y = y0 + i * stride
         band = min((y - y0) * bands // span, bands - 1)
-        if dark[band] > floor + clear:
-            continue
         for j in range(nx):
             x = x0 + j * stride
             r, g, b = crop[y, x, 0], crop[y, x, 1], crop[y, x, 2]
             if _skin_coloured(r, g, b, chroma):
-                ratios[n] = float(b) / (float(r) - float(b))
+                rb[n], blue[n], of[n] = float(r) - float(b), float(b), band
                 n += 1
+    rb, blue, of = rb[:n], blue[:n], of[:n]
     levels = np.full(bands, np.nan)
-    if n < least_pixels:
+    clear_band = dark[of] <= dark.min() + clear
+    if clear_band.sum() < least_pixels:
         return False, levels, 0.0
-    k = np.median(ratios[:n])
-    per = np.empty(ny * nx)
+    k = np.median(blue[clear_band] / rb[clear_band])
     cnt = np.zeros(bands, np.int64)
     for band in range(bands):
-        m = 0
-        for i in range(ny):
-            y = y0 + i * stride
-            if min((y - y0) * bands // span, bands - 1) != band:
-                continue
-            for j in range(nx):
-                x = x0 + j * stride
-                r, g, b = crop[y, x, 0], crop[y, x, 1], crop[y, x, 2]
-                if _skin_coloured(r, g, b, chroma):
-                    per[m] = float(b) - k * (float(r) - float(b))
-                    m += 1
-        cnt[band] = m
-        if m >= least_pixels:
-            levels[band] = np.median(per[:m])
+        mine = of == band
+        cnt[band] = mine.sum()
+        if cnt[band] >= least_pixels:
+            levels[band] = np.median(blue[mine] - k * rb[mine])
+    ok, out = _from_neighbours(levels, cnt, least_pixels)
+    return ok, (out if ok else levels), k
+
+
+@nb.njit(**INNER)
+def _from_neighbours(levels: np.ndarray, cnt: np.ndarray, least_pixels: int):
+    """The bands' levels (bands,) with each band of fewer than ``least_pixels`` pixels (``cnt``) given its nearest
+    measured neighbour's (the upper one first at equal distance). Returns (ok, levels): ok False where no band
+    is measured."""
+    bands = levels.size
     out = levels.copy()
     for j in range(bands):
         if cnt[j] < least_pixels:
@@ -236,9 +228,9 @@ def clear_band_levels(crop: np.ndarray, x0: int, y0: int, x1: int, y1: int, band
                     if best < 0 and 0 <= m < bands and cnt[m] >= least_pixels:
                         best = m
             if best < 0:
-                return False, levels, k
+                return False, levels
             out[j] = levels[best]
-    return True, out, k
+    return True, out
 
 
 @nb.njit(**KERNEL)
