@@ -127,3 +127,41 @@ def test_a_lost_face_is_remembered_for_a_time_then_forgotten():
     assert state.dropped is not None and state.score_ref == 0.5
     state.drop(1000.0 + LOST_MEMORY + 1.0)
     assert state.dropped is None and state.score_ref is None and state.lost_face(3000.0) is None
+
+
+def _textured_scene(seed=3, shape=(480, 640)):
+    """A smooth random texture (RGB uint8): the alignment has something to lock on everywhere."""
+    import cv2
+
+    rng = np.random.default_rng(seed)
+    grey = cv2.GaussianBlur(rng.uniform(0, 255, shape).astype(np.float32), (0, 0), 4.0)
+    grey = cv2.normalize(grey, None, 20, 235, cv2.NORM_MINMAX).astype(np.uint8)
+    return np.dstack([grey, grey, grey])
+
+
+def test_the_follower_refuses_an_alignment_of_the_wrong_size_and_keeps_where_it_was():
+    import cv2
+
+    from facepuppet.capture.color.face import CROP_EXTENT
+    from facepuppet.capture.color.follow import Follower
+
+    px = 40.0
+    size = (int(round((CROP_EXTENT[2] - CROP_EXTENT[0]) * px)), int(round((CROP_EXTENT[3] - CROP_EXTENT[1]) * px)))
+    scene = _textured_scene()
+    start = FaceFrame(np.array([320.0, 220.0]), np.array([60.0, 0.0]))
+    follower = Follower(size, px, FollowConfig(iterations=50))
+    follower.start(scene, start)
+    # The scene grown by 8 % about the face's origin: the face is now 8 % bigger, where it was.
+    grow = cv2.getRotationMatrix2D((320.0, 220.0), 0.0, 1.08)
+    grown = cv2.warpAffine(scene, grow, (640, 480), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
+    A = start.crop_matrix(px)
+    moved = follower.follow(grown, A, (0.8 * start.unit, 1.25 * start.unit))
+    assert moved is not None and abs(moved.unit / start.unit - 1.08) < 0.01
+    assert np.allclose(moved.origin, start.origin, atol=1.0)
+    assert np.allclose(follower.aligned().origin, moved.origin) and abs(follower.aligned().unit - moved.unit) < 1e-9
+    # The same move refused by the size asked for: None, and where the face was last aligned is kept.
+    follower.start(scene, start)
+    assert follower.follow(grown, A, (0.9 * start.unit, 1.05 * start.unit)) is None
+    assert follower.correlation is not None                                   # the alignment itself succeeded
+    kept = follower.aligned()
+    assert np.allclose(kept.origin, start.origin, atol=1e-6) and abs(kept.unit - start.unit) < 1e-6

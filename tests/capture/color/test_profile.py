@@ -276,6 +276,27 @@ def test_colour_network_inputs_perturbed_by_1e_6_give_the_same_weights(rng):
     np.testing.assert_allclose(b.predict(x_new), a.predict(x_new), atol=1e-3)
 
 
+def test_hidden_units_permuted_and_flipped_have_one_canonical_form_and_the_same_outputs(rng):
+    from facepuppet.capture.color.net import N_HIDDEN, canonical_units
+
+    w0, b0 = rng.normal(size=(N_INPUTS, N_HIDDEN)), rng.normal(size=N_HIDDEN)
+    w1, b1 = rng.normal(size=(N_HIDDEN, 4)), rng.normal(size=4)
+    # A copy with its units in another order and three of them turned (σ(−a) = 1 − σ(a)).
+    order, turned = rng.permutation(N_HIDDEN), np.array([1, 4, 7])
+    v0, c0, v1, c1 = w0[:, order].copy(), b0[order].copy(), w1[order].copy(), b1.copy()
+    c1 += v1[turned].sum(axis=0)
+    v0[:, turned], c0[turned], v1[turned] = -v0[:, turned], -c0[turned], -v1[turned]
+    z = rng.normal(size=(50, N_INPUTS))
+    out = lambda w0, b0, w1, b1: (1.0 / (1.0 + np.exp(-(z @ w0 + b0)))) @ w1 + b1  # noqa: E731
+    np.testing.assert_allclose(out(v0, c0, v1, c1), out(w0, b0, w1, b1), atol=1e-12)   # the same network
+    for p, q in zip(canonical_units(w0, b0, w1, b1), canonical_units(v0, c0, v1, c1)):
+        np.testing.assert_allclose(p, q, atol=1e-12)
+    canon = canonical_units(w0, b0, w1, b1)
+    np.testing.assert_allclose(out(*canon), out(w0, b0, w1, b1), atol=1e-12)
+    assert np.all(canon[0][np.argmax(np.abs(canon[0]), axis=0), np.arange(N_HIDDEN)] > 0)
+    assert np.all(np.diff(np.hypot(np.linalg.norm(canon[0], axis=0), canon[1])) <= 0)
+
+
 def test_colour_network_on_a_real_clip_is_stable_under_1e_6(labelled_clip, monkeypatch):
     """train_profile's own training set (performer_c's frames, MediaPipe's curves, relit copies), fitted once
     as collected and once with every input moved by up to 1e-6: the same Eq. 1 weights within 1e-3."""

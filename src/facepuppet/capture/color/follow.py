@@ -161,9 +161,10 @@ class Follower:
                                borderMode=cv2.BORDER_REPLICATE)
         return cv2.cvtColor(small, cv2.COLOR_RGB2GRAY).astype(np.float32)
 
-    def follow(self, rgb: np.ndarray, A: np.ndarray) -> FaceFrame | None:
+    def follow(self, rgb: np.ndarray, A: np.ndarray, units: tuple[float, float] | None = None) -> FaceFrame | None:
         """The face frame moved by aligning the face crop of crop matrix ``A`` on the reference (affine ECC),
-        or None when the alignment fails."""
+        or None when the alignment fails or puts the face at a size (image pixels per face unit) outside
+        ``units`` (low, high); then where the face was last aligned is kept (:meth:`aligned`)."""
         # First guess: the face where the alignment last put it (reference half-res crop -> current one).
         f = self.config.scale
         guess = then_affine(cv2.invertAffineTransform(self.followed), A)
@@ -175,6 +176,17 @@ class Follower:
         self.correlation = float(cc)
         W[:, 2] /= f
         G = then_affine(W, cv2.invertAffineTransform(A))      # crop pixels -> image pixels, where the face is now
+        moved = self._frame_of(G)
+        if units is not None and not units[0] < moved.unit < units[1]:
+            return None
         self.followed = cv2.invertAffineTransform(G)
-        px = self.px
-        return FaceFrame(G[:, :2] @ self.origin_px + G[:, 2], G[:, 0] * px)
+        return moved
+
+    def aligned(self) -> FaceFrame:
+        """The face frame where the last successful alignment put the face (the reference's own frame before
+        the first): the eyes' correction not applied."""
+        return self._frame_of(cv2.invertAffineTransform(self.followed))
+
+    def _frame_of(self, G: np.ndarray) -> FaceFrame:
+        """The face frame of the crop-to-image matrix ``G`` (2, 3)."""
+        return FaceFrame(G[:, :2] @ self.origin_px + G[:, 2], G[:, 0] * self.px)

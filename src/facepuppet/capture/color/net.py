@@ -14,7 +14,9 @@ Training (:meth:`ColourNet.fit`) averages :data:`N_RESTARTS` 11-10-4 networks fi
 are added), with SciPy's L-BFGS-B run until the gradient vanishes (no loss-change stop). The decay keeps each
 minimum isolated and its basin wide, so the fit is deterministic and inputs that differ by rounding (two OpenCV
 builds) give the same Eq. 1 weights (a hidden unit in saturation may still drift along a direction that leaves
-the outputs unchanged); the average keeps the weights predicted for unseen crops from hanging on one start.
+the outputs unchanged), once each network's hidden units are put in a canonical order and sign
+(:func:`canonical_units`: a path that differs by rounding may reach a copy of the minimum with its units
+permuted); the average keeps the weights predicted for unseen crops from hanging on one start.
 The fitted layers are kept as plain arrays, so evaluating needs only numpy and a profile loads without pickle.
 Training targets come from :func:`separating_weights` (see :mod:`facepuppet.capture.color.train`).
 """
@@ -31,7 +33,7 @@ from facepuppet.capture.color.face import CROP_EXTENT
 log = logging.getLogger(__name__)
 
 __all__ = ["SUBAREAS", "N_INPUTS", "WEIGHT_SCALE", "ColourNet", "subarea_means", "separating_weights",
-           "constrain_weights", "fisher_separation", "fit_member", "N_RESTARTS"]
+           "constrain_weights", "fisher_separation", "fit_member", "canonical_units", "N_RESTARTS"]
 
 #: Sub-areas in face units (x0, y0, x1, y1); the first nine give mean luma, "cheeks" also the chromaticity.
 SUBAREAS: dict[str, tuple[float, float, float, float]] = {
@@ -249,4 +251,23 @@ def fit_member(z: np.ndarray, y: np.ndarray, seed: int) -> tuple[np.ndarray, np.
                                "gtol": GRADIENT_TOLERANCE, "maxcor": 30})
     if not result.success:
         log.warning("colour network: the fit stopped before its gradient vanished (%s)", result.message)
-    return unpack(result.x)
+    return canonical_units(*unpack(result.x))
+
+
+def canonical_units(w0: np.ndarray, b0: np.ndarray, w1: np.ndarray, b1: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The same network (w0 (11, H), b0 (H,), w1 (H, 4), b1 (4,)) with its hidden units in a canonical form.
+
+    A sigmoid layer computes the same outputs, at the same weight decay, with its units in any order and any
+    unit's sign flipped (σ(−a) = 1 − σ(a): w0, b0, w1 of the unit negated and its w1 added to b1), so fits
+    that differ only by rounding may land on such copies of one minimum. Each unit is turned so that its input
+    weight of largest magnitude is positive, and the units are ordered by the norm of their input weights and
+    bias, largest first.
+    """
+    w0, b0, w1, b1 = (np.array(a, dtype=np.float64) for a in (w0, b0, w1, b1))
+    flip = w0[np.argmax(np.abs(w0), axis=0), np.arange(w0.shape[1])] < 0
+    b1 = b1 + w1[flip].sum(axis=0)
+    sign = np.where(flip, -1.0, 1.0)
+    w0, b0, w1 = w0 * sign, b0 * sign, w1 * sign[:, None]
+    order = np.argsort(-np.hypot(np.linalg.norm(w0, axis=0), b0), kind="stable")
+    return w0[:, order], b0[order], w1[order], b1

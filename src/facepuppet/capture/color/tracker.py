@@ -235,7 +235,9 @@ class ColorTracker:
             self.seen = None
             return FrameFeatures.lost(len(CURVE_NAMES), len(POINT_NAMES))
         fol.dropped = None
-        curves, fol.frame, fol.correction, self.seen = result.curves, result.frame, result.correction, result.seen
+        curves, fol.frame, self.seen = result.curves, result.frame, result.seen
+        # A face just found: its reference crop was taken in the corrected frame, so the correction starts afresh.
+        fol.correction = result.correction if followed else np.array(NO_CORRECTION)
         # Now and then whether the crop still looks like a face; a face found again first at the next frame it is
         # followed in (it may sit off the face: the brows taken for its eyes, say).
         fol.check_in = 1 if fol.found_again and not followed else fol.check_in - 1
@@ -330,10 +332,11 @@ class ColorTracker:
         place = self._place
         A = frame.crop_matrix(px)
         if follow and self._follower.ref is not None:
-            moved = self._follower.follow(rgb, A)
-            if moved is not None and SCALE_STEP[0] < moved.unit / frame.unit < SCALE_STEP[1]:
-                frame = moved
-                A = frame.crop_matrix(px)
+            # The frame the alignment puts the face in, or where it last put it: the frame given holds the
+            # last eye correction, which is applied below.
+            units = (SCALE_STEP[0] * frame.unit, SCALE_STEP[1] * frame.unit)
+            frame = self._follower.follow(rgb, A, units) or self._follower.aligned()
+            A = frame.crop_matrix(px)
         crop = cv2.warpAffine(rgb, A, self._size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         if place.light is not None:
             crop = cv2.transform(crop, place.light)
