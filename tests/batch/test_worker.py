@@ -140,6 +140,7 @@ def test_a_ray_actors_clip_streams_its_frame_counts_then_animates_result(two_cli
     """The Ray actor's method as plain Python (no Ray needed): frame counts adding up to the clip's frames, then
     the result, with `animate`'s bytes; a clip that cannot be read gives a failed result, not an error."""
     import cv2
+    from threadpoolctl import threadpool_limits
 
     from facepuppet.batch.ray_engine import ClipWorker
 
@@ -149,16 +150,17 @@ def test_a_ray_actors_clip_streams_its_frame_counts_then_animates_result(two_cli
     before = cv2.getNumThreads()
     for name in ("OPENCV_FFMPEG_THREADS", *BLAS_THREAD_VARIABLES):   # set by the actor: put back after
         monkeypatch.setenv(name, os.environ.get(name, "1"))
-    try:
-        actor = ClipWorker(1)
-        task = ClipTask(index=7, clip=str(paths[1]), rig=str(tmp_path / "not-read.npz"), rig_sha256="shipped",
-                        outputs={"glb": str(tmp_path / "out.glb")}, config=config)
-        items = list(actor.run(task, [rig_arrays(str(rig))]))       # the rig's arrays as shipped, not its path
-        bad = ClipTask(index=8, clip=str(tmp_path / "none.mp4"), rig=str(rig), rig_sha256="shipped",
-                       outputs={"glb": str(tmp_path / "none.glb")}, config=config)
-        failed = list(actor.run(bad, [None]))                         # the rig kept: not fetched again
-    finally:
-        cv2.setNumThreads(before)
+    with threadpool_limits(limits=None):                             # BLAS's count put back at the end
+        try:
+            actor = ClipWorker(1)
+            task = ClipTask(index=7, clip=str(paths[1]), rig=str(tmp_path / "not-read.npz"), rig_sha256="shipped",
+                            outputs={"glb": str(tmp_path / "out.glb")}, config=config)
+            items = list(actor.run(task, [rig_arrays(str(rig))]))   # the rig's arrays as shipped, not its path
+            bad = ClipTask(index=8, clip=str(tmp_path / "none.mp4"), rig=str(rig), rig_sha256="shipped",
+                           outputs={"glb": str(tmp_path / "none.glb")}, config=config)
+            failed = list(actor.run(bad, [None]))                     # the rig kept: not fetched again
+        finally:
+            cv2.setNumThreads(before)
     *counts, result = items
     assert all(isinstance(c, int) and c > 0 for c in counts) and sum(counts) == 40
     assert result.ok and result.index == 7 and result.frames == 40, result.error

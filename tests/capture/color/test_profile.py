@@ -289,7 +289,7 @@ def test_hidden_units_permuted_and_flipped_have_one_canonical_form_and_the_same_
     z = rng.normal(size=(50, N_INPUTS))
     out = lambda w0, b0, w1, b1: (1.0 / (1.0 + np.exp(-(z @ w0 + b0)))) @ w1 + b1  # noqa: E731
     np.testing.assert_allclose(out(v0, c0, v1, c1), out(w0, b0, w1, b1), atol=1e-12)   # the same network
-    for p, q in zip(canonical_units(w0, b0, w1, b1), canonical_units(v0, c0, v1, c1)):
+    for p, q in zip(canonical_units(w0, b0, w1, b1), canonical_units(v0, c0, v1, c1), strict=True):
         np.testing.assert_allclose(p, q, atol=1e-12)
     canon = canonical_units(w0, b0, w1, b1)
     np.testing.assert_allclose(out(*canon), out(w0, b0, w1, b1), atol=1e-12)
