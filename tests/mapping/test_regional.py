@@ -89,8 +89,8 @@ def test_arrays_only_finds_regions_and_points(scene):
     masks = m.region_masks
     np.testing.assert_allclose(masks.sum(0), 1.0)
     assert len(m.region_names) >= 3 and m.region_names[0] == "background"
-    for i in range(3):   # to rounding: coordinates of about 5, solved through the examples' inverse
-        np.testing.assert_allclose(m.synthesize(m.weights(se[i])), te[i], atol=1e-8)
+    for i in range(3):
+        np.testing.assert_allclose(m.synthesize(m.weights(se[i])), te[i], atol=1e-9)
     np.testing.assert_allclose(m.synthesize(m.weights(sb)), tb, atol=1e-12)
 
 
