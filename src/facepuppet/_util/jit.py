@@ -10,6 +10,6 @@ argument types each, and inner functions write nothing, so parallel compiles nev
 """
 
 #: Options of a kernel called from Python.
-KERNEL = {"cache": True, "nogil": True}
+KERNEL = {"cache": True, "nogil": True, "error_model": "numpy"}
 #: Options of a function called only from compiled code.
-INNER = {"nogil": True}
+INNER = {"nogil": True, "error_model": "numpy"}

@@ -6,7 +6,6 @@ import cv2
 import numpy as np
 
 from facepuppet.capture.color.align import blur3, ecc_affine
-from facepuppet.capture.color.transform import hsv_u8, hue_sat_u8
 
 
 def _scene(h=46, w=43, seed=0):
@@ -75,10 +74,3 @@ def test_a_flat_crop_fails():
     assert not ok
 
 
-def test_branch_free_hue_and_saturation_match_the_branching_ones():
-    rng = np.random.default_rng(0)
-    rgb = np.concatenate([rng.integers(0, 256, (20000, 3)), np.repeat(np.arange(256)[:, None], 3, axis=1),
-                          [[255, 0, 0], [0, 255, 0], [0, 0, 255], [255, 255, 0], [0, 255, 255], [255, 0, 255]]])
-    for r, g, b in rgb.tolist():
-        h, s, v = hsv_u8(r, g, b)
-        assert hue_sat_u8(r, g, b, max(r, g, b)) == (h, s)

@@ -193,13 +193,24 @@ def face_windows(rgb: np.ndarray, roi: tuple[int, int, int, int] | None = None,
         c, s = abs(T[0, 0]), abs(T[0, 1])
         W, H = int(np.ceil(w * c + h * s)), int(np.ceil(w * s + h * c))
         T[:, 2] += [(W - w) / 2.0, (H - h) / 2.0]
-        turned = grey if tilt == 0 else cv2.warpAffine(grey, T, (W, H), flags=cv2.INTER_LINEAR,
-                                                       borderMode=cv2.BORDER_REFLECT)
         if tilt == 0:
             T = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+            boxes, ran = _passes(grey, passes)
+        else:
+            # The passes run search copies no larger than the finest of them needs: the part is shrunk to that
+            # size first and the small copy turned (turning the full-size part costs more than the search).
+            f = min(1.0, WINDOW / (FACE_SIZES[passes - 1] * min(W, H)))
+            small = grey if f >= 1.0 else cv2.resize(grey, (max(1, round(w * f)), max(1, round(h * f))),
+                                                     interpolation=cv2.INTER_AREA)
+            fx, fy = small.shape[1] / w, small.shape[0] / h
+            Ts = T * [[fx, fx, fx], [fy, fy, fy]]
+            Ts[:, :2] = T[:, :2] * [[1.0, fx / fy], [fy / fx, 1.0]]
+            turned = cv2.warpAffine(small, Ts, (max(1, round(W * fx)), max(1, round(H * fy))),
+                                    flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
+            boxes, ran = _passes(turned, passes)
+            boxes = boxes / [fx, fy, fx, fy] if len(boxes) else boxes
         to_box = T.copy()
         to_box[:, 2] -= T[:, :2] @ [x0, y0]           # image pixels -> the turned copy's pixels
-        boxes, ran = _passes(turned, passes)
         if i == 0:
             passes = ran if len(boxes) else min(ran, TILTED_PASSES)
         out += [FaceWindow(b, to_box) for b in boxes]

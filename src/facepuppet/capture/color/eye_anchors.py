@@ -25,7 +25,7 @@ import threading
 import numba as nb
 import numpy as np
 
-from facepuppet._util.jit import KERNEL
+from facepuppet._util.jit import INNER, KERNEL
 from facepuppet.capture.color.face import similarity_from_points
 from facepuppet.capture.color.lids import EYES
 from facepuppet.capture.curves import bezier_points
@@ -229,10 +229,16 @@ def darkness(crop: np.ndarray, skin_luma: float, low: float, high: float) -> np.
     the contrast C measures a colour feature whose scale is set by the darkest, most saturated pixels of the
     crop, which a dark complexion moves to the lash line and the hair.
     """
+    return _darkness_rows(crop, skin_luma, low, high, 0, crop.shape[0])
+
+
+@nb.njit(**INNER)
+def _darkness_rows(crop: np.ndarray, skin_luma: float, low: float, high: float, y0: int, y1: int) -> np.ndarray:
+    """:func:`darkness` in the rows ``y0 <= y < y1`` (clipped to the crop); 0 in the others."""
     h, w = crop.shape[:2]
     out = np.zeros((h, w), np.float32)
     inv = 1.0 / max((high - low) * skin_luma, 1e-6)
-    for y in range(h):
+    for y in range(max(y0, 0), min(y1, h)):
         for x in range(w):
             v = 0.299 * float(crop[y, x, 0]) + 0.587 * float(crop[y, x, 1]) + 0.114 * float(crop[y, x, 2])
             t = min(max((skin_luma * (1.0 - low) - v) * inv, 0.0), 1.0)
@@ -248,9 +254,16 @@ def without_long_runs(D: np.ndarray, level: float, wide: int) -> np.ndarray:
     The eye's dark parts (lashes, iris, pupil) make a blob about as wide as the eye; a glasses rim's top and
     bottom and the brows make longer horizontal lines, which may not draw the eye search.
     """
-    h, w = D.shape
     out = D.copy()
-    for y in range(h):
+    _clear_long_runs(out, level, wide, 0, D.shape[0])
+    return out
+
+
+@nb.njit(**INNER)
+def _clear_long_runs(D: np.ndarray, level: float, wide: int, y0: int, y1: int) -> None:
+    """:func:`without_long_runs` on ``D`` itself, in the rows ``y0 <= y < y1`` (clipped to it)."""
+    h, w = D.shape
+    for y in range(max(y0, 0), min(y1, h)):
         x = 0
         while x < w:
             if D[y, x] < level:
@@ -260,9 +273,8 @@ def without_long_runs(D: np.ndarray, level: float, wide: int) -> np.ndarray:
             while e < w and D[y, e] >= level:
                 e += 1
             if e - x > wide:
-                out[y, x:e] = 0.0
+                D[y, x:e] = 0.0
             x = e
-    return out
 
 
 @nb.njit(**KERNEL)
@@ -377,9 +389,14 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
     skin = _skin_reference(crop, cheeks)
     # The eye's place by the darkness, in a window reaching dark_above over it (the brows lie above).
     if dark and skin[0] > 1.0:
-        D = without_long_runs(darkness(crop, skin[0], table[14], table[15]), table[18],
-                              int(np.round(table[19] * unit)))
-        found, dark = dark_centres(D, anchors, half_w, half_h, min(int(np.round(table[16] * unit)), half_h))
+        above = min(int(np.round(table[16] * unit)), half_h)
+        # Only the rows the mean shift can reach: each step's centre lies in its window, which reaches ``above``
+        # over it and ``half_h`` under it (and one pixel either way for the rounding of the centre).
+        r0 = int(np.floor(min(anchors[0, 1], anchors[1, 1]))) - EYE_STEPS * (above + 1) - 1
+        r1 = int(np.ceil(max(anchors[0, 1], anchors[1, 1]))) + EYE_STEPS * (half_h + 1) + 2
+        D = _darkness_rows(crop, skin[0], table[14], table[15], r0, r1)
+        _clear_long_runs(D, table[18], int(np.round(table[19] * unit)), r0, r1)
+        found, dark = dark_centres(D, anchors, half_w, half_h, above)
         if found:
             # Where the two part by more than ``dark_agree``, the darkness has been drawn off the eye (a rim,
             # the hair beside the face) and C's place stands.
@@ -398,18 +415,22 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
     # of rows the two windows and their boxes cover.
     bt = max(int(np.round(min(out[0, 1], out[1, 1]) - table[7] * unit)) - r_box, 0)
     bb = min(int(np.round(max(out[0, 1], out[1, 1]) + table[8] * unit)) + 1 + r_box, h)
-    luma = np.empty((h, w))
-    proj = np.empty((h, w))
-    integral = np.zeros((h + 1, w + 1))
-    for y in range(bt, bb):
+    # Row i of the band's arrays is the crop's row bt + i (the integral image's row i + 1 sums the band's rows
+    # up to it).
+    nb_rows = max(bb - bt, 0)
+    luma = np.empty((nb_rows, w))
+    proj = np.empty((nb_rows, w))
+    integral = np.zeros((nb_rows + 1, w + 1))
+    for i in range(nb_rows):
+        y = bt + i
         row = 0.0
         for x in range(w):
             r, g, bl = float(crop[y, x, 0]), float(crop[y, x, 1]), float(crop[y, x, 2])
             v = 0.299 * r + 0.587 * g + 0.114 * bl
-            luma[y, x] = v
-            proj[y, x] = 0.713 * (r - v) * skin[1] + 0.564 * (bl - v) * skin[2]
+            luma[i, x] = v
+            proj[i, x] = 0.713 * (r - v) * skin[1] + 0.564 * (bl - v) * skin[2]
             row += v
-            integral[y + 1, x + 1] = integral[y, x + 1] + row
+            integral[i + 1, x + 1] = integral[i, x + 1] + row
     half = max(int(np.round(table[11] * unit)), 1)
     cols = np.zeros(2 * half + 1)
     ends = np.zeros((2, 2))                 # each eye's opening: inner and outer end, crop pixels
@@ -427,11 +448,12 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
             for x in range(max(x0, 0), min(x0 + 2 * half + 1, w)):
                 xa, xb = max(x - r_box, 0), min(x + r_box + 1, w)
                 for y in range(y0, y1):
-                    v = luma[y, x]
-                    if proj[y, x] >= chroma_max or v <= luma_min:
+                    v = luma[y - bt, x]
+                    if proj[y - bt, x] >= chroma_max or v <= luma_min:
                         continue
                     ya, yb = max(y - r_box, bt), min(y + r_box + 1, bb)
-                    local = (integral[yb, xb] - integral[ya, xb] - integral[yb, xa] + integral[ya, xa]) / (
+                    ia, ib = ya - bt, yb - bt
+                    local = (integral[ib, xb] - integral[ia, xb] - integral[ib, xa] + integral[ia, xa]) / (
                         (yb - ya) * (xb - xa))
                     if v >= table[10] * local:
                         cols[x - x0] += 1.0

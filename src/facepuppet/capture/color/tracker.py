@@ -478,10 +478,14 @@ def _turned_and_shifted(anchors: np.ndarray, correction: np.ndarray) -> np.ndarr
     """The anchors (N, 2) crop pixels moved by the eye correction ``correction`` (4,) (a, b, tx, ty: the similarity
     [[a, -b, tx], [b, a, ty]]) without its scale: turned by its angle about the eye anchors' midpoint, which goes
     where the correction takes it."""
-    a, b, tx, ty = (float(v) for v in correction)
-    rot = np.array([[a, b], [-b, a]])                       # row vectors: p @ rot is the similarity's linear part
-    mid = anchors[:2].mean(axis=0)
-    return (anchors - mid) @ (rot / max(float(np.hypot(a, b)), 1e-9)) + mid @ rot + [tx, ty]
+    a, b, tx, ty = np.asarray(correction, dtype=float).tolist()
+    pts = np.asarray(anchors, dtype=float).tolist()
+    mx, my = 0.5 * (pts[0][0] + pts[1][0]), 0.5 * (pts[0][1] + pts[1][1])
+    s = max(float(np.hypot(a, b)), 1e-9)
+    c, d = a / s, b / s                                     # the turn without the scale
+    # Row vectors: p @ [[a, b], [-b, a]] is the similarity's linear part; the midpoint goes where it takes it.
+    mx2, my2 = a * mx - b * my + tx, b * mx + a * my + ty
+    return np.array([[c * (x - mx) - d * (y - my) + mx2, d * (x - mx) + c * (y - my) + my2] for x, y in pts])
 
 
 def _layout_shift(layout: np.ndarray) -> dict[str, np.ndarray]:

@@ -33,7 +33,6 @@ __all__ = [
     "SPECK",
     "CONTRAST_LOW",
     "CONTRAST_HIGH",
-    "hsv_u8",
     "ycrcb_u8",
     "skin_fraction",
     "feature_intensity",
@@ -176,45 +175,6 @@ def contrast(intensity: np.ndarray, low: float, high: float, out: np.ndarray | N
     return x
 
 
-# OpenCV's fixed-point reciprocals for 8-bit RGB -> HSV (12 fractional bits).
-_S_DIV = np.r_[0, np.round(255.0 * 4096.0 / np.arange(1, 256))].astype(np.int64)
-_H_DIV = np.r_[0, np.round(180.0 * 4096.0 / (6.0 * np.arange(1, 256)))].astype(np.int64)
-
-
-@nb.njit(**INNER)
-def hsv_u8(r: int, g: int, b: int):
-    """OpenCV's 8-bit RGB -> HSV (hue code 0..179, saturation and value 0..255), same integer arithmetic."""
-    v = max(r, g, b)
-    diff = v - min(r, g, b)
-    s = (diff * _S_DIV[v] + 2048) >> 12
-    if diff == 0:
-        return 0, s, v
-    if v == r:
-        h = g - b
-    elif v == g:
-        h = b - r + 2 * diff
-    else:
-        h = r - g + 4 * diff
-    h = (h * _H_DIV[diff] + 2048) >> 12
-    if h < 0:
-        h += 180
-    return h, s, v
-
-
-@nb.njit(**INNER)
-def hue_sat_u8(r: int, g: int, b: int, v: int):
-    """:func:`hsv_u8`'s hue code and saturation of the pixel (r, g, b) of value ``v`` = max(r, g, b): the same
-    integers, with the channel holding the maximum picked by arithmetic rather than branches."""
-    diff = v - min(r, g, b)
-    s = (diff * _S_DIV[v] + 2048) >> 12
-    on_r = np.int64(v == r)
-    on_g = np.int64(v == g) * (1 - on_r)
-    on_b = 1 - on_r - on_g
-    h = (on_r * (g - b) + on_g * (b - r + 2 * diff) + on_b * (r - g + 4 * diff)) * _H_DIV[diff]
-    h = (h + 2048) >> 12
-    return h + 180 * np.int64(h < 0), s
-
-
 @nb.njit(**INNER)
 def ycrcb_u8(r: int, g: int, b: int):
     """OpenCV's 8-bit RGB -> YCrCb (same integer arithmetic): (Y, Cr, Cb)."""
@@ -252,7 +212,6 @@ def _eq1_row(v: np.ndarray, g: np.ndarray, hue_term: np.ndarray, out: np.ndarray
         out[x] = w1 * (vx - g[x]) / max(vx, 1.0) + kv * vx + w2 + hue_term[x]
 
 
-@nb.njit(**KERNEL)
 def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarray, min_saturation: float,
                       skin_boxes: np.ndarray, feature_boxes: np.ndarray):
     """Eq. 1 and the contrast C over a face crop in one pass (as :func:`transform` and :func:`contrast`).
@@ -261,7 +220,9 @@ def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarr
     :func:`transform`; then C = smoothstep between the skin level (median of I
     over ``skin_boxes``) + :data:`CONTRAST_LOW` and + :data:`CONTRAST_HIGH` of the way to the brightest I in
     ``feature_boxes``
-    (a lone bright pixel is taken down to :data:`SPECK` times the brightest 3 x 3 mean's level).
+    (a lone bright pixel is taken down to :data:`SPECK` times the brightest 3 x 3 mean's level). The hue and
+    saturation are OpenCV's 8-bit HSV of the crop (:func:`cv2.cvtColor`), converted only when the hue term is
+    used.
 
     Parameters
     ----------
@@ -282,6 +243,19 @@ def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarr
     value : (H, W) uint8
         HSV value V.
     """
+    hsv = cv2.cvtColor(crop, cv2.COLOR_RGB2HSV) if weights[3] != 0.0 else _NO_HSV
+    return _feature_intensity(crop, hsv, weights, hue_table, min_saturation, skin_boxes, feature_boxes)
+
+
+#: The HSV image :func:`_feature_intensity` is given when the hue term is not used (it is not read).
+_NO_HSV = np.zeros((0, 0, 3), np.uint8)
+
+
+@nb.njit(**KERNEL)
+def _feature_intensity(crop: np.ndarray, hsv: np.ndarray, weights: np.ndarray, hue_table: np.ndarray,
+                       min_saturation: float, skin_boxes: np.ndarray, feature_boxes: np.ndarray):
+    """:func:`feature_intensity` given the crop's 8-bit HSV ``hsv`` (H, W, 3) uint8 (read only where the hue
+    term's weight w4 is not 0)."""
     h, w = crop.shape[:2]
     w1, w2, w3, w4 = weights[0], weights[1], weights[2], weights[3]
     kv = (w3 - w2) / 255.0
@@ -297,8 +271,7 @@ def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarr
             r, g, b = np.int64(crop[y, x, 0]), np.int64(crop[y, x, 1]), np.int64(crop[y, x, 2])
             v = max(r, g, b)
             if use_hue:
-                hue, s = hue_sat_u8(r, g, b, v)
-                hue_row[x] = w4 * hue_table[hue] if s >= s_min else 0.0
+                hue_row[x] = w4 * hue_table[hsv[y, x, 0]] if hsv[y, x, 1] >= s_min else 0.0
             v_row[x] = v
             g_row[x] = g
             value[y, x] = v

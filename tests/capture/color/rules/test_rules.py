@@ -14,7 +14,6 @@ from facepuppet.capture.color.transform import (
     LipHue,
     contrast,
     feature_intensity,
-    hsv_u8,
     lip_hue_table,
     transform,
 )
@@ -95,13 +94,6 @@ def test_outline_parts_not_read_keep_the_layout():
     with pytest.raises(ValueError, match=r"unknown outline parts \['nose'\]"):
         outline_features(C, raw=raw, value=value, layout=layout, mouth_offset=offset, boxes=boxes,
                          blob_params=params, unit=unit, mouth_reach=reach, parts=("eyes", "nose"))
-
-
-def test_hsv_is_opencvs_8bit_conversion():
-    rgb = np.random.default_rng(0).integers(0, 256, (5000, 3)).astype(np.uint8)
-    ref = cv2.cvtColor(rgb[None], cv2.COLOR_RGB2HSV)[0]
-    ours = np.array([hsv_u8(int(r), int(g), int(b)) for r, g, b in rgb])
-    assert np.array_equal(ours, ref)
 
 
 def test_feature_intensity_is_eq1_then_contrast():
