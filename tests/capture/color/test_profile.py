@@ -1,5 +1,6 @@
 """Performer profile: save/load, the 11-10-4 colour network, and weights re-estimated as the light changes (§3.1)."""
 
+import os
 import zipfile
 
 import cv2
@@ -63,6 +64,33 @@ def test_round_trip_with_network_predicts_the_same(tmp_path, rng):
     np.testing.assert_array_equal(got.lids["coef"], lids["coef"])
     with np.load(path, allow_pickle=False) as d:          # loads without pickle
         assert int(d["version"]) == PROFILE_VERSION
+
+
+def test_the_networks_estimates_move_the_weights_of_a_followed_face_only(rng):
+    """Eq. 1's weights start at the profile's; a followed crop's re-estimate moves them ``reestimate_gain`` of the
+    way to the network's estimate, every ``reestimate_every`` followed crops; a search's candidate crops leave
+    them as they are."""
+    from facepuppet.capture.color.config import ColorTrackerConfig, MeasureConfig
+    from facepuppet.capture.color.net import subarea_means
+    from facepuppet.capture.color.tracker import ColorTracker
+
+    net = _net(rng)
+    start = np.array([0.5, 0.5, -1.0, 0.4])
+    tracker = ColorTracker(Profile(weights=start, net=net.to_arrays()),
+                           config=ColorTrackerConfig(measure=MeasureConfig(reestimate_every=3, reestimate_gain=0.25)))
+    w, h = tracker.crop_size
+    crops = [rng.integers(0, 256, (h, w, 3)).astype(np.uint8) for _ in range(5)]
+    estimate = [net.predict(subarea_means(c, tracker.config.measure.px)) for c in crops]
+    tracker.intensity(crops[0])                                             # a candidate: not moved
+    np.testing.assert_allclose(tracker._intensity.weights, start, rtol=1e-6)
+    expected = start.astype(np.float32)
+    for k, crop in enumerate(crops):
+        tracker.intensity(crop, followed=True)
+        if k % 3 == 0:                                                      # the 1st and 4th followed crops
+            expected = expected + 0.25 * (estimate[k] - expected)
+        np.testing.assert_allclose(tracker._intensity.weights, expected, rtol=1e-5, err_msg=str(k))
+    with pytest.raises(ValueError, match="reestimate_gain"):
+        MeasureConfig(reestimate_gain=0.0)
 
 
 def test_mouth_reach_round_trip_and_older_files(tmp_path):
@@ -321,3 +349,13 @@ def test_colour_network_on_a_real_clip_is_stable_under_1e_6(labelled_clip, monke
     moved = ColourNet.fit(x_moved, y)
     np.testing.assert_allclose(moved.predict(x), net.predict(x), atol=1e-3)
     assert np.abs(net.predict(x) - y).mean() < 0.5 * np.abs(constrain_weights(y.mean(axis=0)) - y).mean()
+    # The same fit whatever threads BLAS is allowed (on the machine's cores its sums differ in their last bits,
+    # 7e-6 in the input weights, from one thread's).
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1):
+        one = ColourNet.fit(x, y)
+    with threadpool_limits(limits=max(os.cpu_count() or 1, 2)):
+        many = ColourNet.fit(x, y)
+    for k, v in one.to_arrays().items():
+        np.testing.assert_array_equal(many.to_arrays()[k], v, err_msg=k)

@@ -24,7 +24,10 @@ class MeasureConfig:
     px : float
         Crop pixels per face unit: the work is proportional to its square.
     reestimate_every : int
-        Frames between re-estimates of Eq. 1's weights by the colour network.
+        Followed frames between re-estimates of Eq. 1's weights by the colour network.
+    reestimate_gain : float
+        In (0, 1]: the share of the way from the weights in use to the network's re-estimate they move at each
+        re-estimate (the light changes slowly; one crop's estimate also moves with the face's expression).
     eye_window : (float, float)
         Half width and half height (face units) of the window the eye centres are searched in.
     outline_parts : tuple of str
@@ -37,6 +40,7 @@ class MeasureConfig:
 
     px: float = 48.0
     reestimate_every: int = 15
+    reestimate_gain: float = 0.3
     eye_window: tuple[float, float] = (0.3, 0.14)
     outline_parts: tuple[str, ...] = OUTLINE_PARTS
     snake: SnakeConfig = field(default_factory=lambda: SnakeConfig(iterations=5, samples=10, offset=1.5, step=1.0))
@@ -45,6 +49,8 @@ class MeasureConfig:
         unknown = set(self.outline_parts) - set(OUTLINE_PARTS)
         if unknown:
             raise ValueError(f"outline_parts: unknown {sorted(unknown)}; known: {', '.join(OUTLINE_PARTS)}")
+        if not 0.0 < self.reestimate_gain <= 1.0:
+            raise ValueError(f"reestimate_gain must be in (0, 1], got {self.reestimate_gain}")
 
 
 @dataclass(frozen=True, kw_only=True)

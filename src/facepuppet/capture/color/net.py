@@ -16,7 +16,8 @@ minimum isolated and its basin wide, so the fit is deterministic and inputs that
 builds) give the same Eq. 1 weights (a hidden unit in saturation may still drift along a direction that leaves
 the outputs unchanged), once each network's hidden units are put in a canonical order and sign
 (:func:`canonical_units`: a path that differs by rounding may reach a copy of the minimum with its units
-permuted); the average keeps the weights predicted for unseen crops from hanging on one start.
+permuted); the average keeps the weights predicted for unseen crops from hanging on one start. The fit runs
+BLAS on one thread: a product's sums shared among threads differ in their last bits with the thread count.
 The fitted layers are kept as plain arrays, so evaluating needs only numpy and a profile loads without pickle.
 Training targets come from :func:`separating_weights` (see :mod:`facepuppet.capture.color.train`).
 """
@@ -206,8 +207,12 @@ class ColourNet:
         y = np.asarray(y, dtype=np.float64)
         if x.ndim != 2 or x.shape[1] != N_INPUTS or y.shape != (len(x), 4) or len(x) < 1:
             raise ValueError(f"x must be (N, {N_INPUTS}) and y (N, 4), got {x.shape} and {y.shape}")
+        from threadpoolctl import threadpool_limits
+
         mean, std = x.mean(axis=0), np.maximum(x.std(axis=0), MIN_INPUT_STD)
-        members = [fit_member((x - mean) / std, y, seed + k) for k in range(N_RESTARTS)]
+        # One BLAS thread whatever the process allows (a batch worker's one, a many-core machine's): the same fit.
+        with threadpool_limits(limits=1, user_api="blas"):
+            members = [fit_member((x - mean) / std, y, seed + k) for k in range(N_RESTARTS)]
         w0 = np.concatenate([m[0] for m in members], axis=1)
         b0 = np.concatenate([m[1] for m in members])
         w1 = np.concatenate([m[2] for m in members]) / N_RESTARTS

@@ -97,7 +97,7 @@ class _Intensity:
     """Eq. 1's weights and the last frame's feature images."""
 
     weights: np.ndarray                     # (4,) float32 Eq. 1's weights
-    count: int = 0                          # crops transformed (the network re-estimates every few)
+    count: int = 0                          # followed crops transformed (the network re-estimates every few)
     raw: np.ndarray | None = None           # (H, W) float32 Eq. 1's intensity
     C: np.ndarray | None = None             # (H, W) float32 the contrast C
     value: np.ndarray | None = None         # (H, W) uint8 HSV value
@@ -283,14 +283,24 @@ class ColorTracker:
         self._features(curves, (w, h))
         self._features(curves, (w, h))                 # from the previous frame's pose
 
-    def intensity(self, crop: np.ndarray) -> np.ndarray:
-        """Eq. 1 and the contrast C on a face crop (H, W, 3) uint8 -> (H, W) float32 in [0, 1]."""
-        it = self._intensity
-        if self._net is not None and (it.count % self.config.measure.reestimate_every == 0):
-            from facepuppet.capture.color.net import subarea_means
+    def intensity(self, crop: np.ndarray, *, followed: bool = False) -> np.ndarray:
+        """Eq. 1 and the contrast C on a face crop (H, W, 3) uint8 -> (H, W) float32 in [0, 1].
 
-            it.weights = self._net.predict(subarea_means(crop, self.config.measure.px))
-        it.count += 1
+        Eq. 1's weights start at the profile's; with a trained profile the colour network re-estimates them on
+        every ``measure.reestimate_every``-th crop of a ``followed`` face, and they move
+        ``measure.reestimate_gain`` of the way to its estimate: the light changes slowly, and one crop's
+        estimate moves with the expression too. A candidate of the search for the face is seen with the weights
+        in use (the light is the last frame's), whatever the order the candidates are tried in.
+        """
+        it = self._intensity
+        if self._net is not None and followed:
+            m = self.config.measure
+            if it.count % m.reestimate_every == 0:
+                from facepuppet.capture.color.net import subarea_means
+
+                estimate = self._net.predict(subarea_means(crop, m.px))
+                it.weights = (it.weights + m.reestimate_gain * (estimate - it.weights)).astype(np.float32)
+            it.count += 1
         it.crop = crop
         it.raw, it.C, it.value = feature_intensity(
             crop, it.weights.astype(np.float64), self._hue, self.profile.lip_hue.min_saturation,
@@ -342,7 +352,7 @@ class ColorTracker:
             crop = cv2.transform(crop, place.light)
         crop = without_glare(crop, self._cheek_boxes, self._eye_boxes, px)      # a lens's reflection: unknown
         skin = self._follow.skin = self._skin_ok(crop)
-        C = self.intensity(crop)
+        C = self.intensity(crop, followed=follow)
         # The eyes' correction of the followed frame (a similarity in crop pixels, as a, b, tx, ty), smoothed
         # over frames: the alignment on the whole face is steady, the eye search noisier but unbiased. With the
         # generic profile the search starts where the last correction's turn and shift put the eyes (its size

@@ -182,7 +182,20 @@ def train_profile(frames, curves, *, base: Profile | None = None, name: str = "p
     -------
     Profile
         With the performer's layout and anchors, skin model, lip hue and the trained colour network.
+
+    BLAS runs on one thread throughout (its sums' last bits depend on the thread count, and a fit can carry
+    them into another minimum): the profile is the same whatever threads the process allows.
     """
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _train_profile(frames, curves, base=base, name=name, augment=augment, seed=seed, progress=progress,
+                              config=config, rotations=rotations)
+
+
+def _train_profile(frames, curves, *, base: Profile | None, name: str, augment: int, seed: int, progress: bool,
+                   config: ColorTrackerConfig | None, rotations: np.ndarray | None) -> Profile:
+    """:func:`train_profile`'s work."""
     from tqdm import tqdm
 
     base = base or default_profile()
