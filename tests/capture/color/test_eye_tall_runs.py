@@ -97,12 +97,12 @@ def test_the_eye_search_starts_where_the_last_correction_put_the_eyes(assets):
 
 
 def test_the_search_starts_from_the_correction_without_its_scale():
-    from facepuppet.capture.color.tracker import _turned_and_shifted
+    from facepuppet.capture.color.face import turned_and_shifted
 
     anchors = np.array([[40.0, 50.0], [80.0, 50.0], [60.0, 90.0]])
     angle, scale, shift = np.radians(10.0), 1.2, np.array([3.0, -2.0])
     a, b = scale * np.cos(angle), scale * np.sin(angle)
-    got = _turned_and_shifted(anchors, np.array([a, b, *shift]))
+    got = turned_and_shifted(anchors, np.array([a, b, *shift]))
     # The similarity's image of the eyes' midpoint, and the anchors turned about it at their own size.
     mid = anchors[:2].mean(axis=0)
     S = np.array([[a, -b], [b, a]])

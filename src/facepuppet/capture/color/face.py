@@ -15,6 +15,7 @@ import cv2
 import numpy as np
 
 __all__ = [
+    "turned_and_shifted",
     "SkinModel",
     "FaceFrame",
     "SKIN_Y_MIN",
@@ -342,3 +343,17 @@ def box_in_crop(box, px: float) -> tuple[int, int, int, int]:
     x0, y0 = CROP_EXTENT[0], CROP_EXTENT[1]
     return (int(round((box[0] - x0) * px)), int(round((box[1] - y0) * px)),
             int(round((box[2] - x0) * px)), int(round((box[3] - y0) * px)))
+
+
+def turned_and_shifted(anchors: np.ndarray, correction: np.ndarray) -> np.ndarray:
+    """The anchors (N, 2) crop pixels moved by the eye correction ``correction`` (4,) (a, b, tx, ty: the similarity
+    [[a, -b, tx], [b, a, ty]]) without its scale: turned by its angle about the eye anchors' midpoint, which goes
+    where the correction takes it."""
+    a, b, tx, ty = np.asarray(correction, dtype=float).tolist()
+    pts = np.asarray(anchors, dtype=float).tolist()
+    mx, my = 0.5 * (pts[0][0] + pts[1][0]), 0.5 * (pts[0][1] + pts[1][1])
+    s = max(float(np.hypot(a, b)), 1e-9)
+    c, d = a / s, b / s                                     # the turn without the scale
+    # Row vectors: p @ [[a, b], [-b, a]] is the similarity's linear part; the midpoint goes where it takes it.
+    mx2, my2 = a * mx - b * my + tx, b * mx + a * my + ty
+    return np.array([[c * (x - mx) - d * (y - my) + mx2, d * (x - mx) + c * (y - my) + my2] for x, y in pts])

@@ -40,6 +40,7 @@ from facepuppet.capture.color.face import (
     box_in_crop,
     same_frame,
     similarity_of_pairs,
+    turned_and_shifted,
 )
 from facepuppet.capture.color.follow import OWN_CHECKS, Follower, FollowState
 from facepuppet.capture.color.glare import without_glare
@@ -360,7 +361,7 @@ class ColorTracker:
         # anchors are where its search lands when started on them (:mod:`.eye_anchors`), so it starts there.
         last_corr = correction if correction is not None else self._follow.correction
         smooth = follow and last_corr is not None
-        start = _turned_and_shifted(place.anchors_px, last_corr) if smooth and self._eye_opening else None
+        start = turned_and_shifted(place.anchors_px, last_corr) if smooth and self._eye_opening else None
         eyes = self.eye_centres(C, start, dark=follow)
         corr = last_corr if smooth else np.array(NO_CORRECTION)
         if eyes is not None:
@@ -482,20 +483,6 @@ class ColorTracker:
         fol.skin_found = self._skin_ok(best.seen[0])
         fol.score = None
         return best
-
-
-def _turned_and_shifted(anchors: np.ndarray, correction: np.ndarray) -> np.ndarray:
-    """The anchors (N, 2) crop pixels moved by the eye correction ``correction`` (4,) (a, b, tx, ty: the similarity
-    [[a, -b, tx], [b, a, ty]]) without its scale: turned by its angle about the eye anchors' midpoint, which goes
-    where the correction takes it."""
-    a, b, tx, ty = np.asarray(correction, dtype=float).tolist()
-    pts = np.asarray(anchors, dtype=float).tolist()
-    mx, my = 0.5 * (pts[0][0] + pts[1][0]), 0.5 * (pts[0][1] + pts[1][1])
-    s = max(float(np.hypot(a, b)), 1e-9)
-    c, d = a / s, b / s                                     # the turn without the scale
-    # Row vectors: p @ [[a, b], [-b, a]] is the similarity's linear part; the midpoint goes where it takes it.
-    mx2, my2 = a * mx - b * my + tx, b * mx + a * my + ty
-    return np.array([[c * (x - mx) - d * (y - my) + mx2, d * (x - mx) + c * (y - my) + my2] for x, y in pts])
 
 
 def _layout_shift(layout: np.ndarray) -> dict[str, np.ndarray]:
