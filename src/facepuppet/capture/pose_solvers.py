@@ -18,25 +18,26 @@ __all__ = ["upright_start", "refine_upright", "solve_spd", "refine_pose", "repro
 def upright_start(K: np.ndarray, xyz: np.ndarray, uv: np.ndarray) -> tuple[float, np.ndarray]:
     """A first upright pose, ``R = FRONTAL_ROTATION @ Rz(roll)`` (no yaw or pitch), as (roll, t).
 
-    With that R, ``R X = (c X_x − s X_y, −s X_x − c X_y, −X_z)`` (c, s the roll's cosine and sine), and each
-    point's projection ``u = f_x (R X + t)_x / (R X + t)_z + c_x`` (v alike), multiplied out, is linear in
-    (c, s, t): ``f_x (c X_x − s X_y + t_x) − (u − c_x) t_z = −(u − c_x) X_z`` and
-    ``f_y (−s X_x − c X_y + t_y) − (v − c_y) t_z = −(v − c_y) X_z``. The least-squares solution of those
-    2N equations gives the roll ``atan2(s, c)``, and t is solved again with the roll fixed; exact for the
-    points of an upright head, a start for :func:`refine_upright` otherwise.
+    With that R, ``R X = (c X_x − s X_y, −s X_x − c X_y, −X_z)`` (c, s the roll's cosine and sine): the points'
+    (X_x, −X_y) turned by −roll. The roll is the angle of the 2-D similarity that best takes the points'
+    (X_x, −X_y) onto their image points (both centred; Procrustes), whatever the face's proportions. Then each
+    point's projection ``u = f_x (R X + t)_x / (R X + t)_z + c_x`` (v alike), multiplied out, is linear in t:
+    ``f_x t_x − (u − c_x) t_z = −(u − c_x) X_z − f_x (c X_x − s X_y)`` and
+    ``f_y t_y − (v − c_y) t_z = −(v − c_y) X_z − f_y (−s X_x − c X_y)``, solved by least squares; a start for
+    :func:`refine_upright` (exact in t for the points of an upright head at that roll).
     """
     fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2]
     X, Y, Z = xyz[:, 0], xyz[:, 1], xyz[:, 2]
     du, dv = uv[:, 0] - cx, uv[:, 1] - cy
+    px, py = X - X.mean(), -(Y - Y.mean())
+    qx, qy = du - du.mean(), dv - dv.mean()
+    roll = -float(np.arctan2(np.sum(px * qy - py * qx), np.sum(px * qx + py * qy)))
+    c, s = np.cos(roll), np.sin(roll)
     n = len(xyz)
     zero, one = np.zeros(n), np.ones(n)
-    A = np.vstack([np.column_stack([fx * X, -fx * Y, fx * one, zero, -du]),
-                   np.column_stack([-fy * Y, -fy * X, zero, fy * one, -dv])])
-    c, s = np.linalg.lstsq(A, np.concatenate([-du * Z, -dv * Z]), rcond=None)[0][:2]
-    roll = float(np.arctan2(s, c))
-    c, s = np.cos(roll), np.sin(roll)
+    A = np.vstack([np.column_stack([fx * one, zero, -du]), np.column_stack([zero, fy * one, -dv])])
     rest = np.concatenate([-du * Z - fx * (c * X - s * Y), -dv * Z - fy * (-s * X - c * Y)])
-    return roll, np.linalg.lstsq(A[:, 2:], rest, rcond=None)[0]
+    return roll, np.linalg.lstsq(A, rest, rcond=None)[0]
 
 
 @nb.njit(**KERNEL)
