@@ -149,7 +149,7 @@ def test_calibrated_profile_tracks_the_rest_of_the_clip(clip):
     got = [tracker.track(f, 100 * i) for i, f in enumerate(frames[15:])]
     assert all(g.valid for g in got)
     nme = np.stack([_nme(g.curves, r) for g, r in zip(got, ref[15:], strict=True)])
-    assert nme.mean() < 0.032, nme.mean(axis=0)         # measured 0.024
+    assert nme.mean() < 0.032, nme.mean(axis=0)         # measured 0.031
 
 
 def _eye_opening(curves):
@@ -165,7 +165,7 @@ def _eye_opening(curves):
 def test_profile_eyelid_model_follows_the_eyes_closing(clip):
     """Trained on the first half of the frames, the profile's eye models (each eye's shape model, and the
     eyelid model without them) read the opening of the eyes on the second half as MediaPipe does (performer_a
-    half-closes them often); the blob rules alone do not (measured: 0.65, 0.68 and -0.15)."""
+    half-closes them often); the blob rules alone do not (measured: 0.81, 0.62 and -0.10)."""
     from dataclasses import replace
 
     from facepuppet.capture.color.train import train_profile
