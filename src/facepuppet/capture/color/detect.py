@@ -203,8 +203,8 @@ def face_windows(rgb: np.ndarray, roi: tuple[int, int, int, int] | None = None,
             small = grey if f >= 1.0 else cv2.resize(grey, (max(1, round(w * f)), max(1, round(h * f))),
                                                      interpolation=cv2.INTER_AREA)
             fx, fy = small.shape[1] / w, small.shape[0] / h
-            Ts = T * [[fx, fx, fx], [fy, fy, fy]]
-            Ts[:, :2] = T[:, :2] * [[1.0, fx / fy], [fy / fx, 1.0]]
+            S = np.diag([fx, fy])                      # the part's pixels -> the small copy's
+            Ts = np.column_stack([S @ T[:, :2] @ np.linalg.inv(S), S @ T[:, 2]])
             turned = cv2.warpAffine(small, Ts, (max(1, round(W * fx)), max(1, round(H * fy))),
                                     flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
             boxes, ran = _passes(turned, passes)

@@ -15,7 +15,6 @@ import cv2
 import numpy as np
 
 __all__ = [
-    "turned_and_shifted",
     "SkinModel",
     "FaceFrame",
     "SKIN_Y_MIN",
@@ -30,6 +29,7 @@ __all__ = [
     "same_frame",
     "then_affine",
     "box_in_crop",
+    "turned_and_shifted",
 ]
 
 # Tuning constants of the skin search (find_face)
