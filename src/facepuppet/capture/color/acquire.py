@@ -291,8 +291,8 @@ class Acquirer:
             result, start = None, cand.unit
             for step in range(REFINE_STEPS):
                 result = self.tracker.measure(rgb, cand, follow=False, gain=1.0, outline=step == REFINE_STEPS - 1)
-                if result is None:
-                    break
+                if result is None or not result.eyes_found:
+                    break               # without eyes the frame stays put: each further step would repeat this one
                 cand = result.frame
             if result is None or not result.eyes_found or not np.isfinite(self.value(result, last, windows)):
                 continue
