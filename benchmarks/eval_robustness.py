@@ -20,6 +20,10 @@ such footage from the shared clips and measures it with the shared yardstick:
 - ``backlit``: the frame halved in brightness under a veiling glare that falls from white at the top to nothing
   two thirds down (a bright window behind and above the performer: low contrast on the upper face);
 - ``haze``: the contrast times 0.55 under an even veil of 100 levels (haze, or a bright scene scattered in the lens).
+- ``long`` and ``short``: the frame stretched to 1.2 and squashed to 0.85 of its height (the middle kept, or the
+  edges reflected): faces whose mouth and chin sit farther from or nearer to the eyes;
+- ``grey``: the frame's luma in all three channels (a monochrome or infrared camera, black-and-white footage: no
+  skin colour anywhere).
 
 Background copies: the face (an oval around MediaPipe's eyes on the original frame, feathered) cut out and set on
 a made-up scene, the kind of room that fools a skin-colour model:
@@ -37,8 +41,8 @@ profile (no landmark model: the copies test the colour pipeline alone), and scor
 The bars of the shared clips are NME <= 0.05, jitter ratio <= 1.5, coverage >= 0.98.
 
 Run: ``python benchmarks/eval_robustness.py [--clips performer_a performer_c] [--variants dim warm noisy small
-face80 cool rolled mirrored portrait darker lowres backlit haze wood beige skin_object poster stage_hand]
-[--assets PATH] [--jobs 2]``
+face80 cool rolled mirrored portrait darker lowres backlit haze long short grey wood beige skin_object poster
+stage_hand] [--assets PATH] [--jobs 2]``
 (about 20 s per copy of a or c on one core, MediaPipe's reference included; ``performer_b_exaggerated`` is
 three times as long).
 """
@@ -58,7 +62,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 VARIANTS = ("dim", "warm", "noisy", "small", "face80", "cool", "rolled", "mirrored", "portrait", "darker", "lowres",
-            "backlit", "haze")
+            "backlit", "haze", "long", "short", "grey")
 BACKGROUNDS = ("wood", "beige", "skin_object", "poster", "stage_hand")
 #: The face cut out: an oval centred this far below the eyes, with these half-axes (eye-centre distances).
 FACE_OVAL = (0.8, 1.2, 1.75)
@@ -73,6 +77,9 @@ ROLL = 15.0                 # the rolled copy's turn, degrees counter-clockwise
 SKIN_CR, SKIN_CB, SKIN_HALF, SKIN_FEATHER = 150.0, 110.0, 15.0, 10.0
 DARKER_GAMMA, DARKER_GAINS = 1.6, (0.72, 0.62, 0.55)
 LOWRES_QUALITY = 35         # JPEG quality of the lowres copy's frames
+#: Vertical scale of the ``long`` and ``short`` copies (faces whose mouth and chin sit farther from or nearer to
+#: the eyes: people's proportions differ that much, the eye-mouth distance from about 1 to 1.5 eye distances).
+LONG, SHORT = 1.2, 0.85
 
 
 def _shrunk(rgb: np.ndarray, f: float) -> np.ndarray:
@@ -167,6 +174,16 @@ def altered(rgb: np.ndarray, variant: str, rng: np.random.Generator, unit: float
         x = x * 0.5 + 255.0 * glare[:, None, None]
     elif variant == "haze":
         x = x * 0.55 + 100.0
+    elif variant in ("long", "short"):
+        h, w = rgb.shape[:2]
+        s = LONG if variant == "long" else SHORT
+        tall = cv2.resize(rgb, (w, int(round(h * s))), interpolation=cv2.INTER_AREA if s < 1 else cv2.INTER_LINEAR)
+        top = (tall.shape[0] - h) // 2
+        if top >= 0:
+            return np.ascontiguousarray(tall[top:top + h])
+        return cv2.copyMakeBorder(tall, -top, h - tall.shape[0] + top, 0, 0, cv2.BORDER_REFLECT)
+    elif variant == "grey":
+        return np.repeat(cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)[..., None], 3, axis=2)
     else:
         raise ValueError(f"unknown variant {variant!r}; choose from {', '.join(VARIANTS)}")
     return np.clip(x + 0.5, 0, 255).astype(np.uint8)
@@ -323,7 +340,12 @@ def measure(job: tuple[str, str, str, str]) -> tuple[str, str, str]:
     write_copy(Path(assets) / "video" / f"{clip}.mp4", variant, video,
                model=str(Path(assets) / "models" / "face_landmarker.task"))
     track = Path(tmp) / f"{clip}_{variant}.npz"
-    save_track(track, track_media(video, ColorTracker(), progress=False))
+    from facepuppet.errors import FacepuppetError
+
+    try:
+        save_track(track, track_media(video, ColorTracker(), progress=False))
+    except FacepuppetError as e:            # no face in any frame: a copy the tracker fails whole
+        return clip, variant, f"tracking failed: {e}"
     env = dict(os.environ, FACEPUPPET_FACE_LANDMARKER=str(Path(assets) / "models" / "face_landmarker.task"))
     done = subprocess.run([sys.executable, str(ROOT.parent / "shared" / "eval" / "track_agreement.py"),
                            str(video), str(track)], capture_output=True, text=True, env=env)

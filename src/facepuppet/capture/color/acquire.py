@@ -231,18 +231,26 @@ class Acquirer:
                 if frame is not None:
                     hypotheses.append((M, frame))
         # Windows with a face's pattern of dark features, upright or tilted: candidates of their own, and the
-        # support a candidate needs in a scene the skin model cannot tell from skin (skin in the frame as filmed or
-        # with its light evened out: a cool or dim light moves a face's skin out of the skin model; a window is
-        # tried in the light its skin shows most in). Only where a skin model finds some skin region (skin-coloured
-        # scenes included): without any, the landmark backend places the face; and not when a landmark model is
-        # given explicitly (it places the faces the skin model misses).
-        use = cfg.acquire.cascade and hypotheses and cfg.landmarks.model is None
+        # support a candidate needs in a scene the skin model cannot tell from skin. Where a skin model finds some
+        # skin region (skin-coloured scenes included), a window is taken only where its middle looks like skin
+        # (in the frame as filmed or with its light evened out: a cool or dim light moves a face's skin out of the
+        # skin model; a window is tried in the light its skin shows most in). Where none finds any (a monochrome
+        # or infrared camera, black-and-white footage, a strongly coloured light), every window is taken, in the
+        # evened-out light (a grey frame's levels stretched), and its candidates need the likeness of a crop
+        # without skin (``acquire.min_skinless_score``) like any other. Not when a landmark model is given
+        # explicitly (it places the faces the skin model misses).
+        skinless = not hypotheses
+        use = cfg.acquire.cascade and cfg.landmarks.model is None
         if use and roi is None:
             # Over the whole frame the cascade costs most (all its passes run where it finds no face): while no
             # face is found it runs every CASCADE_EVERY frames only.
             use, self.cascade_wait = self.cascade_wait <= 0, max(self.cascade_wait - 1, 0)
         windows = []
         for win in face_windows(rgb, roi) if use else []:
+            if skinless:
+                windows.append(win)
+                hypotheses.append((lights[-1][0], win.frame()))
+                continue
             share, M = max(((max(_skin_share(x, win, k) for k in skins), i) for i, (_, x) in enumerate(lights)))
             if share >= WINDOW_SKIN:
                 windows.append(win)
