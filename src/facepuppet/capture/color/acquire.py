@@ -1,5 +1,6 @@
-"""Finding the face afresh (§3.1): skin regions and eye holes, candidate face frames pulled onto the eyes, the
-light they are seen in; where skin fails, the landmark backend's eyes; once, the eye anchors calibrated on them.
+"""Finding the face afresh (§3.1): skin regions and eye holes and the face cascade's windows, candidate face frames
+pulled onto the eyes, the light they are seen in; where no skin is seen, the cascade's windows alone, and where
+they fail too, the landmark backend's eyes; once, the eye anchors calibrated on them.
 
 :class:`Acquirer` does it for a :class:`~facepuppet.capture.color.tracker.ColorTracker` through the tracker's
 public measurement (:class:`Measurer`) and the :class:`~facepuppet.capture.color.measure.Placement` they share.
