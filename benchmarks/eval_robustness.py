@@ -334,14 +334,13 @@ def measure(job: tuple[str, str, str, str]) -> tuple[str, str, str]:
     os.environ.pop("FACEPUPPET_FACE_LANDMARKER", None)
     from facepuppet.capture.color.tracker import ColorTracker
     from facepuppet.capture.tracking import track_media
+    from facepuppet.errors import FacepuppetError
     from facepuppet.io.track import save_track
 
     video = Path(tmp) / f"{clip}_{variant}.mp4"
     write_copy(Path(assets) / "video" / f"{clip}.mp4", variant, video,
                model=str(Path(assets) / "models" / "face_landmarker.task"))
     track = Path(tmp) / f"{clip}_{variant}.npz"
-    from facepuppet.errors import FacepuppetError
-
     try:
         save_track(track, track_media(video, ColorTracker(), progress=False))
     except FacepuppetError as e:            # no face in any frame: a copy the tracker fails whole

@@ -18,6 +18,7 @@ import cv2
 import numpy as np
 import pytest
 
+from facepuppet.capture.color.detect import face_windows
 from facepuppet.capture.color.tracker import ColorTracker
 from facepuppet.capture.curves import CURVE_NAMES, bezier_points
 
@@ -286,13 +287,17 @@ def test_a_face_filmed_in_grey(request, who):
     assert np.mean(nme) < 0.045, (who, np.mean(nme))
 
 
-@pytest.mark.parametrize("kind", ["wood", "stage", "texture"])
-def test_a_grey_scene_without_a_face_is_no_face(kind):
-    """Grey scenes without a face (no skin anywhere, so every window of the cascade is a candidate): no frame is
-    valid."""
+def test_a_grey_scene_without_a_face_is_no_face():
+    """A grey, warm blotchy texture without a face (no skin anywhere, so every window of the face cascade is a
+    candidate): in the shifted copies where the cascade finds a window, a fresh tracker (whose first frame runs the
+    cascade over the whole frame) finds no face."""
     rng = np.random.default_rng(11)
-    tracker = ColorTracker()
-    back = _background(kind, (480, 640, 3), np.array([190.0, 140.0, 120.0]), rng)
-    for i in range(12):
-        shaken = np.roll(back, (2 * i, 3 * i), axis=(0, 1))
-        assert not tracker.track(_grey(np.clip(shaken, 0, 255).astype(np.uint8)), 66 * i).valid, (kind, i)
+    back = _background("texture", (480, 640, 3), np.array([190.0, 140.0, 120.0]), rng)
+    seen = 0
+    for i in range(40):
+        grey = _grey(np.clip(np.roll(back, (7 * i, 11 * i), axis=(0, 1)), 0, 255).astype(np.uint8))
+        if not face_windows(grey, None):
+            continue
+        seen += 1
+        assert not ColorTracker().track(grey, 0).valid, i
+    assert seen >= 3, seen                  # measured: windows in 5 of the 40 copies
