@@ -23,7 +23,9 @@ such footage from the shared clips and measures it with the shared yardstick:
 - ``long`` and ``short``: the frame stretched to 1.2 and squashed to 0.85 of its height (the middle kept, or the
   edges reflected): faces whose mouth and chin sit farther from or nearer to the eyes;
 - ``grey``: the frame's luma in all three channels (a monochrome or infrared camera, black-and-white footage: no
-  skin colour anywhere).
+  skin colour anywhere);
+- ``hd``: the frame enlarged to 1080 rows and set in the middle of a 1920 x 1080 frame, the sides reflected (a
+  1080p webcam or phone close to the face: a face about 2.25 times as many pixels wide).
 
 Background copies: the face (an oval around MediaPipe's eyes on the original frame, feathered) cut out and set on
 a made-up scene, the kind of room that fools a skin-colour model:
@@ -41,7 +43,7 @@ profile (no landmark model: the copies test the colour pipeline alone), and scor
 The bars of the shared clips are NME <= 0.05, jitter ratio <= 1.5, coverage >= 0.98.
 
 Run: ``python benchmarks/eval_robustness.py [--clips performer_a performer_c] [--variants dim warm noisy small
-face80 cool rolled mirrored portrait darker lowres backlit haze long short grey wood beige skin_object poster
+face80 cool rolled mirrored portrait darker lowres backlit haze long short grey hd wood beige skin_object poster
 stage_hand] [--assets PATH] [--jobs 2]``
 (about 20 s per copy of a or c on one core, MediaPipe's reference included; ``performer_b_exaggerated`` is
 three times as long).
@@ -62,7 +64,7 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 VARIANTS = ("dim", "warm", "noisy", "small", "face80", "cool", "rolled", "mirrored", "portrait", "darker", "lowres",
-            "backlit", "haze", "long", "short", "grey")
+            "backlit", "haze", "long", "short", "grey", "hd")
 BACKGROUNDS = ("wood", "beige", "skin_object", "poster", "stage_hand")
 #: The face cut out: an oval centred this far below the eyes, with these half-axes (eye-centre distances).
 FACE_OVAL = (0.8, 1.2, 1.75)
@@ -80,6 +82,8 @@ LOWRES_QUALITY = 35         # JPEG quality of the lowres copy's frames
 #: Vertical scale of the ``long`` and ``short`` copies (faces whose mouth and chin sit farther from or nearer to
 #: the eyes: people's proportions differ that much, the eye-mouth distance from about 1 to 1.5 eye distances).
 LONG, SHORT = 1.2, 0.85
+#: The ``hd`` copy's frame (width, height), pixels.
+HD = (1920, 1080)
 
 
 def _shrunk(rgb: np.ndarray, f: float) -> np.ndarray:
@@ -184,6 +188,11 @@ def altered(rgb: np.ndarray, variant: str, rng: np.random.Generator, unit: float
         return cv2.copyMakeBorder(tall, -top, h - tall.shape[0] + top, 0, 0, cv2.BORDER_REFLECT)
     elif variant == "grey":
         return np.repeat(cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)[..., None], 3, axis=2)
+    elif variant == "hd":
+        h, w = rgb.shape[:2]
+        big = cv2.resize(rgb, (int(round(w * HD[1] / h)), HD[1]), interpolation=cv2.INTER_CUBIC)
+        side = max(HD[0] - big.shape[1], 0)
+        return cv2.copyMakeBorder(big, 0, 0, side // 2, side - side // 2, cv2.BORDER_REFLECT)[:, :HD[0]]
     else:
         raise ValueError(f"unknown variant {variant!r}; choose from {', '.join(VARIANTS)}")
     return np.clip(x + 0.5, 0, 255).astype(np.uint8)

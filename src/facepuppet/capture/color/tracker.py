@@ -101,6 +101,7 @@ class _Intensity:
     count: int = 0                          # followed crops transformed (the network re-estimates every few)
     raw: np.ndarray | None = None           # (H, W) float32 Eq. 1's intensity
     C: np.ndarray | None = None             # (H, W) float32 the contrast C
+    eyes: np.ndarray | None = None          # (H, W) float32 C as the eye search reads it (feature_intensity)
     value: np.ndarray | None = None         # (H, W) uint8 HSV value
     crop: np.ndarray | None = None          # (H, W, 3) uint8 the crop they were computed on
 
@@ -291,7 +292,8 @@ class ColorTracker:
         every ``measure.reestimate_every``-th crop of a ``followed`` face, and they move
         ``measure.reestimate_gain`` of the way to its estimate: the light changes slowly, and one crop's
         estimate moves with the expression too. A candidate of the search for the face is seen with the weights
-        in use (the light is the last frame's), whatever the order the candidates are tried in.
+        in use (the light is the last frame's), whatever the order the candidates are tried in. On a followed
+        crop without skin colour the eye search reads a C of stronger contrast (``_intensity.eyes``).
         """
         it = self._intensity
         if self._net is not None and followed:
@@ -303,9 +305,9 @@ class ColorTracker:
                 it.weights = (it.weights + m.reestimate_gain * (estimate - it.weights)).astype(np.float32)
             it.count += 1
         it.crop = crop
-        it.raw, it.C, it.value = feature_intensity(
+        it.raw, it.C, it.value, it.eyes = feature_intensity(
             crop, it.weights.astype(np.float64), self._hue, self.profile.lip_hue.min_saturation,
-            self._cheek_boxes, self._eye_boxes)
+            self._cheek_boxes, self._eye_boxes, followed)
         return it.C
 
     def eye_centres(self, C: np.ndarray, anchors: np.ndarray | None = None, *, dark: bool = False) -> np.ndarray | None:
@@ -362,7 +364,7 @@ class ColorTracker:
         last_corr = correction if correction is not None else self._follow.correction
         smooth = follow and last_corr is not None
         start = turned_and_shifted(place.anchors_px, last_corr) if smooth and self._eye_opening else None
-        eyes = self.eye_centres(C, start, dark=follow)
+        eyes = self.eye_centres(self._intensity.eyes, start, dark=follow)
         corr = last_corr if smooth else np.array(NO_CORRECTION)
         if eyes is not None:
             S_eye = similarity_of_pairs(place.anchors_px[:2], eyes)

@@ -33,6 +33,8 @@ __all__ = [
     "SPECK",
     "CONTRAST_LOW",
     "CONTRAST_HIGH",
+    "GREY_CONTRAST",
+    "GREY_MAGENTA",
     "ycrcb_u8",
     "skin_fraction",
     "feature_intensity",
@@ -51,6 +53,15 @@ CONTRAST_HIGH = 0.75   # fraction    C reaches 1 this far from the skin level to
 SPECK = 2.0
 #: Span of the smooth step, as a fraction of the skin-to-feature distance.
 CONTRAST_SPAN = CONTRAST_HIGH - CONTRAST_LOW
+#: Where the skin has no colour (grey footage, a monochrome or infrared camera) the colour terms of Eq. 1 vanish
+#: and I is the darkness alone, so the shading of the eye sockets and the nose's sides rises towards the eyes'
+#: level and draws the eye search: the C it reads then starts and ends higher, at these fractions (low, high) of
+#: the way (the lips, only a little darker than the skin in grey, need the usual ones).
+GREY_CONTRAST = (0.4, 0.9)
+#: The skin's magenta (V - G) / V (median over the skin boxes) at or under which C takes :data:`GREY_CONTRAST`,
+#: and from which it takes CONTRAST_LOW and CONTRAST_HIGH; linear in between (skin under any coloured light
+#: measured is over 0.17, grey footage 0).
+GREY_MAGENTA = (0.04, 0.10)
 
 
 @dataclass(frozen=True)
@@ -212,15 +223,35 @@ def _eq1_row(v: np.ndarray, g: np.ndarray, hue_term: np.ndarray, out: np.ndarray
         out[x] = w1 * (vx - g[x]) / max(vx, 1.0) + kv * vx + w2 + hue_term[x]
 
 
+@nb.njit(**INNER)
+def _skin_magenta(crop: np.ndarray, boxes: np.ndarray) -> float:
+    """Median over the rectangles ``boxes`` (N, 4) of the crop's magenta (V - G) / V (0 where V is 0): 0 on grey
+    skin, 0.2-0.5 on skin in colour."""
+    total = 0
+    for b in range(len(boxes)):
+        total += max(boxes[b, 2] - boxes[b, 0], 0) * max(boxes[b, 3] - boxes[b, 1], 0)
+    vals = np.empty(total)
+    n = 0
+    for b in range(len(boxes)):
+        for y in range(boxes[b, 1], boxes[b, 3]):
+            for x in range(boxes[b, 0], boxes[b, 2]):
+                r, g, bl = np.int64(crop[y, x, 0]), np.int64(crop[y, x, 1]), np.int64(crop[y, x, 2])
+                v = max(r, g, bl)
+                vals[n] = (v - g) / v if v > 0 else 0.0
+                n += 1
+    return np.median(vals[:n]) if n else 1.0
+
+
 def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarray, min_saturation: float,
-                      skin_boxes: np.ndarray, feature_boxes: np.ndarray):
+                      skin_boxes: np.ndarray, feature_boxes: np.ndarray, grey_contrast: bool = True):
     """Eq. 1 and the contrast C over a face crop in one pass (as :func:`transform` and :func:`contrast`).
 
     I = w1 (V - G) / V + (w3 - w2) V + w2 + w4 G(H) with 8-bit V and G as in
     :func:`transform`; then C = smoothstep between the skin level (median of I
     over ``skin_boxes``) + :data:`CONTRAST_LOW` and + :data:`CONTRAST_HIGH` of the way to the brightest I in
     ``feature_boxes``
-    (a lone bright pixel is taken down to :data:`SPECK` times the brightest 3 x 3 mean's level). The hue and
+    (a lone bright pixel is taken down to :data:`SPECK` times the brightest 3 x 3 mean's level). On skin without
+    colour, the eyes' C takes fractions going over to :data:`GREY_CONTRAST` (:data:`GREY_MAGENTA`). The hue and
     saturation are OpenCV's 8-bit HSV of the crop (:func:`cv2.cvtColor`), converted only when the hue term is
     used.
 
@@ -233,6 +264,8 @@ def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarr
         In [0, 1]; less saturated pixels get G = 0.
     skin_boxes, feature_boxes : (N, 4) int64
         Rectangles (x0, y0, x1, y1).
+    grey_contrast : bool
+        Whether ``eyes`` goes over to :data:`GREY_CONTRAST` on skin without colour.
 
     Returns
     -------
@@ -242,9 +275,12 @@ def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarr
         The contrast-enhanced intensity in [0, 1].
     value : (H, W) uint8
         HSV value V.
+    eyes : (H, W) float32
+        C as the eye search reads it: on skin without colour (and ``grey_contrast``) at fractions going over to
+        :data:`GREY_CONTRAST`, else ``C`` itself.
     """
     hsv = cv2.cvtColor(crop, cv2.COLOR_RGB2HSV) if weights[3] != 0.0 else _NO_HSV
-    return _feature_intensity(crop, hsv, weights, hue_table, min_saturation, skin_boxes, feature_boxes)
+    return _feature_intensity(crop, hsv, weights, hue_table, min_saturation, skin_boxes, feature_boxes, grey_contrast)
 
 
 #: The HSV image :func:`_feature_intensity` is given when the hue term is not used (it is not read).
@@ -253,7 +289,8 @@ _NO_HSV = np.zeros((0, 0, 3), np.uint8)
 
 @nb.njit(**KERNEL)
 def _feature_intensity(crop: np.ndarray, hsv: np.ndarray, weights: np.ndarray, hue_table: np.ndarray,
-                       min_saturation: float, skin_boxes: np.ndarray, feature_boxes: np.ndarray):
+                       min_saturation: float, skin_boxes: np.ndarray, feature_boxes: np.ndarray,
+                       grey_contrast: bool):
     """:func:`feature_intensity` given the crop's 8-bit HSV ``hsv`` (H, W, 3) uint8 (read only where the hue
     term's weight w4 is not 0)."""
     h, w = crop.shape[:2]
@@ -279,11 +316,25 @@ def _feature_intensity(crop: np.ndarray, hsv: np.ndarray, weights: np.ndarray, h
     low = median_of_boxes(raw, skin_boxes)
     top, peak = top_of_boxes(raw, feature_boxes, low)
     feat = low + min(top - low, SPECK * (peak - low))
-    lo = low + CONTRAST_LOW * (feat - low)
-    inv = 1.0 / max(CONTRAST_SPAN * (feat - low), 1e-6)
+    grey = 0.0
+    if grey_contrast:
+        grey = min(max((GREY_MAGENTA[1] - _skin_magenta(crop, skin_boxes)) / (GREY_MAGENTA[1] - GREY_MAGENTA[0]),
+                       0.0), 1.0)
+    C = _smoothstep(raw, low + CONTRAST_LOW * (feat - low), 1.0 / max(CONTRAST_SPAN * (feat - low), 1e-6))
+    if grey <= 0.0:
+        return raw, C, value, C
+    c_low = CONTRAST_LOW + grey * (GREY_CONTRAST[0] - CONTRAST_LOW)
+    c_high = CONTRAST_HIGH + grey * (GREY_CONTRAST[1] - CONTRAST_HIGH)
+    return raw, C, value, _smoothstep(raw, low + c_low * (feat - low), 1.0 / max((c_high - c_low) * (feat - low), 1e-6))
+
+
+@nb.njit(**INNER)
+def _smoothstep(raw: np.ndarray, lo: float, inv: float) -> np.ndarray:
+    """(H, W) float32 ``t² (3 - 2 t)`` with ``t = clip((raw - lo) inv, 0, 1)``."""
+    h, w = raw.shape
     C = np.empty((h, w), np.float32)
     for y in range(h):
         for x in range(w):
             t = min(max((raw[y, x] - lo) * inv, 0.0), 1.0)
             C[y, x] = t * t * (3.0 - 2.0 * t)
-    return raw, C, value
+    return C

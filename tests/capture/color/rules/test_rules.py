@@ -11,6 +11,7 @@ from facepuppet.capture.color.rules import BLOB_PARAMS, OUTLINE_PARTS, outline_f
 from facepuppet.capture.color.rules.kernels import interp, median, quantile, quantile_pair, sort_order
 from facepuppet.capture.color.transform import (
     DEFAULT_WEIGHTS,
+    GREY_CONTRAST,
     LipHue,
     contrast,
     feature_intensity,
@@ -102,13 +103,37 @@ def test_feature_intensity_is_eq1_then_contrast():
     table = lip_hue_table(LipHue())
     skin = np.array([[0, 0, 10, 10], [40, 30, 50, 40]], dtype=np.int64)
     feats = np.array([[10, 10, 30, 20]], dtype=np.int64)
-    raw, C, value = feature_intensity(crop, DEFAULT_WEIGHTS.astype(float), table, 0.12, skin, feats)
+    raw, C, value, _ = feature_intensity(crop, DEFAULT_WEIGHTS.astype(float), table, 0.12, skin, feats)
     ref = transform(crop, DEFAULT_WEIGHTS, table, 0.12)
     assert np.allclose(raw, ref, atol=1e-5)
     assert np.array_equal(value, crop.max(axis=2))
     low = np.median(np.concatenate([ref[0:10, 0:10].ravel(), ref[30:40, 40:50].ravel()]))
     feat = ref[10:20, 10:30].max()
     assert np.allclose(C, contrast(ref, low + 0.15 * (feat - low), low + 0.75 * (feat - low)), atol=1e-4)
+
+
+def test_the_eyes_contrast_rises_on_skin_without_colour():
+    """A grey crop (R = G = B: the skin's magenta 0): C is as on any crop, and the eye search's C takes
+    GREY_CONTRAST's fractions of the way from the skin level to the feature level; a crop in colour, or one
+    transformed without ``grey_contrast`` (a candidate of the search for the face), gives C itself."""
+    rng = np.random.default_rng(2)
+    grey = cv2.GaussianBlur(rng.integers(0, 256, (40, 50)).astype(np.uint8), (0, 0), 1.0)
+    crop = np.repeat(grey[..., None], 3, axis=2)
+    table = lip_hue_table(LipHue())
+    skin = np.array([[0, 0, 10, 10], [40, 30, 50, 40]], dtype=np.int64)
+    feats = np.array([[10, 10, 30, 20]], dtype=np.int64)
+    raw, C, _, eyes = feature_intensity(crop, DEFAULT_WEIGHTS.astype(float), table, 0.12, skin, feats)
+    low = np.median(np.concatenate([raw[0:10, 0:10].ravel(), raw[30:40, 40:50].ravel()]))
+    feat = raw[10:20, 10:30].max()
+    assert np.allclose(C, contrast(raw, low + 0.15 * (feat - low), low + 0.75 * (feat - low)), atol=1e-4)
+    lo, hi = GREY_CONTRAST
+    assert np.allclose(eyes, contrast(raw, low + lo * (feat - low), low + hi * (feat - low)), atol=1e-4)
+    assert eyes.sum() < C.sum()
+    _, C2, _, eyes2 = feature_intensity(crop, DEFAULT_WEIGHTS.astype(float), table, 0.12, skin, feats, False)
+    assert np.array_equal(eyes2, C2)
+    warm = np.clip(crop * np.array([1.0, 0.7, 0.55]), 0, 255).astype(np.uint8)     # skin's magenta 0.3
+    _, C3, _, eyes3 = feature_intensity(warm, DEFAULT_WEIGHTS.astype(float), table, 0.12, skin, feats)
+    assert np.array_equal(eyes3, C3)
 
 
 def test_contrast_is_not_scaled_to_a_lone_speck():
@@ -123,7 +148,7 @@ def test_contrast_is_not_scaled_to_a_lone_speck():
     table = lip_hue_table(LipHue())
     skin = np.array([[0, 14, 30, 20]], dtype=np.int64)
     feats = np.array([[0, 0, 30, 14]], dtype=np.int64)
-    raw, C, _ = feature_intensity(crop, np.array([1.0, 0.0, 0.0, 0.0]), table, 0.12, skin, feats)
+    raw, C, _, _ = feature_intensity(crop, np.array([1.0, 0.0, 0.0, 0.0]), table, 0.12, skin, feats)
     np.testing.assert_allclose([raw[0, 0], raw[10, 10], raw[3, 25]], [0.25, 0.4, 1.0], atol=1e-6)
     low, feat = 0.25, 0.55
     t = (0.4 - (low + 0.15 * (feat - low))) / (0.6 * (feat - low))
