@@ -293,7 +293,7 @@ class ColorTracker:
         ``measure.reestimate_gain`` of the way to its estimate: the light changes slowly, and one crop's
         estimate moves with the expression too. A candidate of the search for the face is seen with the weights
         in use (the light is the last frame's), whatever the order the candidates are tried in. On a followed
-        crop without skin colour the eye search reads a C of stronger contrast (``_intensity.eyes``).
+        crop without colour the eye search reads a C of stronger contrast (``_intensity.eyes``).
         """
         it = self._intensity
         if self._net is not None and followed:

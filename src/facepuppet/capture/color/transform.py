@@ -34,7 +34,7 @@ __all__ = [
     "CONTRAST_LOW",
     "CONTRAST_HIGH",
     "GREY_CONTRAST",
-    "GREY_MAGENTA",
+    "GREY_SPREAD",
     "ycrcb_u8",
     "skin_fraction",
     "feature_intensity",
@@ -53,15 +53,16 @@ CONTRAST_HIGH = 0.75   # fraction    C reaches 1 this far from the skin level to
 SPECK = 2.0
 #: Span of the smooth step, as a fraction of the skin-to-feature distance.
 CONTRAST_SPAN = CONTRAST_HIGH - CONTRAST_LOW
-#: Where the skin has no colour (grey footage, a monochrome or infrared camera) the colour terms of Eq. 1 vanish
+#: Where the crop has no colour (grey footage, a monochrome or infrared camera) the colour terms of Eq. 1 vanish
 #: and I is the darkness alone, so the shading of the eye sockets and the nose's sides rises towards the eyes'
 #: level and draws the eye search: the C it reads then starts and ends higher, at these fractions (low, high) of
 #: the way (the lips, only a little darker than the skin in grey, need the usual ones).
 GREY_CONTRAST = (0.4, 0.9)
-#: The skin's magenta (V - G) / V (median over the skin boxes) at or under which C takes :data:`GREY_CONTRAST`,
-#: and from which it takes CONTRAST_LOW and CONTRAST_HIGH; linear in between (skin under any coloured light
-#: measured is over 0.17, grey footage 0).
-GREY_MAGENTA = (0.04, 0.10)
+#: The crop's colour, the mean over its pixels of max(R, G, B) - min(R, G, B) (8-bit levels), at or under which
+#: the eyes' C takes :data:`GREY_CONTRAST`, and from which it takes CONTRAST_LOW and CONTRAST_HIGH; linear in
+#: between. Grey footage through a video codec gives about 1; faces in colour, dim, hazy or under coloured light,
+#: 17 and more (a hand or shadow over the cheeks does not take the colour out of the whole crop).
+GREY_SPREAD = (3.0, 8.0)
 
 
 @dataclass(frozen=True)
@@ -223,25 +224,6 @@ def _eq1_row(v: np.ndarray, g: np.ndarray, hue_term: np.ndarray, out: np.ndarray
         out[x] = w1 * (vx - g[x]) / max(vx, 1.0) + kv * vx + w2 + hue_term[x]
 
 
-@nb.njit(**INNER)
-def _skin_magenta(crop: np.ndarray, boxes: np.ndarray) -> float:
-    """Median over the rectangles ``boxes`` (N, 4) of the crop's magenta (V - G) / V (0 where V is 0): 0 on grey
-    skin, 0.2-0.5 on skin in colour."""
-    total = 0
-    for b in range(len(boxes)):
-        total += max(boxes[b, 2] - boxes[b, 0], 0) * max(boxes[b, 3] - boxes[b, 1], 0)
-    vals = np.empty(total)
-    n = 0
-    for b in range(len(boxes)):
-        for y in range(boxes[b, 1], boxes[b, 3]):
-            for x in range(boxes[b, 0], boxes[b, 2]):
-                r, g, bl = np.int64(crop[y, x, 0]), np.int64(crop[y, x, 1]), np.int64(crop[y, x, 2])
-                v = max(r, g, bl)
-                vals[n] = (v - g) / v if v > 0 else 0.0
-                n += 1
-    return np.median(vals[:n]) if n else 1.0
-
-
 def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarray, min_saturation: float,
                       skin_boxes: np.ndarray, feature_boxes: np.ndarray, grey_contrast: bool = True):
     """Eq. 1 and the contrast C over a face crop in one pass (as :func:`transform` and :func:`contrast`).
@@ -250,8 +232,8 @@ def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarr
     :func:`transform`; then C = smoothstep between the skin level (median of I
     over ``skin_boxes``) + :data:`CONTRAST_LOW` and + :data:`CONTRAST_HIGH` of the way to the brightest I in
     ``feature_boxes``
-    (a lone bright pixel is taken down to :data:`SPECK` times the brightest 3 x 3 mean's level). On skin without
-    colour, the eyes' C takes fractions going over to :data:`GREY_CONTRAST` (:data:`GREY_MAGENTA`). The hue and
+    (a lone bright pixel is taken down to :data:`SPECK` times the brightest 3 x 3 mean's level). On a crop without
+    colour, the eyes' C takes fractions going over to :data:`GREY_CONTRAST` (:data:`GREY_SPREAD`). The hue and
     saturation are OpenCV's 8-bit HSV of the crop (:func:`cv2.cvtColor`), converted only when the hue term is
     used.
 
@@ -265,7 +247,7 @@ def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarr
     skin_boxes, feature_boxes : (N, 4) int64
         Rectangles (x0, y0, x1, y1).
     grey_contrast : bool
-        Whether ``eyes`` goes over to :data:`GREY_CONTRAST` on skin without colour.
+        Whether ``eyes`` goes over to :data:`GREY_CONTRAST` on a crop without colour.
 
     Returns
     -------
@@ -276,7 +258,7 @@ def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarr
     value : (H, W) uint8
         HSV value V.
     eyes : (H, W) float32
-        C as the eye search reads it: on skin without colour (and ``grey_contrast``) at fractions going over to
+        C as the eye search reads it: on a crop without colour (and ``grey_contrast``) at fractions going over to
         :data:`GREY_CONTRAST`, else ``C`` itself.
     """
     hsv = cv2.cvtColor(crop, cv2.COLOR_RGB2HSV) if weights[3] != 0.0 else _NO_HSV
@@ -303,10 +285,12 @@ def _feature_intensity(crop: np.ndarray, hsv: np.ndarray, weights: np.ndarray, h
     # Per row: the value, the green and the hue's term pixel by pixel (table lookups), then Eq. 1's arithmetic
     # over the row in a loop of its own (free of lookups and branches, it is vectorised).
     v_row, g_row, hue_row = np.empty(w), np.empty(w), np.zeros(w)
+    spread = 0
     for y in range(h):
         for x in range(w):
             r, g, b = np.int64(crop[y, x, 0]), np.int64(crop[y, x, 1]), np.int64(crop[y, x, 2])
             v = max(r, g, b)
+            spread += v - min(r, g, b)
             if use_hue:
                 hue_row[x] = w4 * hue_table[hsv[y, x, 0]] if hsv[y, x, 1] >= s_min else 0.0
             v_row[x] = v
@@ -318,8 +302,8 @@ def _feature_intensity(crop: np.ndarray, hsv: np.ndarray, weights: np.ndarray, h
     feat = low + min(top - low, SPECK * (peak - low))
     grey = 0.0
     if grey_contrast:
-        grey = min(max((GREY_MAGENTA[1] - _skin_magenta(crop, skin_boxes)) / (GREY_MAGENTA[1] - GREY_MAGENTA[0]),
-                       0.0), 1.0)
+        colour = spread / max(h * w, 1)
+        grey = min(max((GREY_SPREAD[1] - colour) / (GREY_SPREAD[1] - GREY_SPREAD[0]), 0.0), 1.0)
     C = _smoothstep(raw, low + CONTRAST_LOW * (feat - low), 1.0 / max(CONTRAST_SPAN * (feat - low), 1e-6))
     if grey <= 0.0:
         return raw, C, value, C

@@ -113,7 +113,7 @@ def test_feature_intensity_is_eq1_then_contrast():
 
 
 def test_the_eyes_contrast_rises_on_skin_without_colour():
-    """A grey crop (R = G = B: the skin's magenta 0): C is as on any crop, and the eye search's C takes
+    """A grey crop (R = G = B): C is as on any crop, and the eye search's C takes
     GREY_CONTRAST's fractions of the way from the skin level to the feature level; a crop in colour, or one
     transformed without ``grey_contrast`` (a candidate of the search for the face), gives C itself."""
     rng = np.random.default_rng(2)
@@ -131,7 +131,7 @@ def test_the_eyes_contrast_rises_on_skin_without_colour():
     assert eyes.sum() < C.sum()
     _, C2, _, eyes2 = feature_intensity(crop, DEFAULT_WEIGHTS.astype(float), table, 0.12, skin, feats, False)
     assert np.array_equal(eyes2, C2)
-    warm = np.clip(crop * np.array([1.0, 0.7, 0.55]), 0, 255).astype(np.uint8)     # skin's magenta 0.3
+    warm = np.clip(crop * np.array([1.0, 0.7, 0.55]), 0, 255).astype(np.uint8)     # R - B 0.45 of R
     _, C3, _, eyes3 = feature_intensity(warm, DEFAULT_WEIGHTS.astype(float), table, 0.12, skin, feats)
     assert np.array_equal(eyes3, C3)
 
