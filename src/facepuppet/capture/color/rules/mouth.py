@@ -14,6 +14,7 @@ import numpy as np
 
 from facepuppet._util.jit import INNER, KERNEL
 from facepuppet.capture.color.blobs import blob_kernel, label8, open_mask
+from facepuppet.capture.color.rules.hair import hair_trim, red_chroma, skin_red
 from facepuppet.capture.color.rules.kernels import median, median_of_boxes, mid_shift, quantile, sample_profile
 from facepuppet.capture.curves import CURVE_NAMES
 
@@ -220,12 +221,13 @@ def _teeth_end(column: np.ndarray, sat: np.ndarray, start: int, step: int, level
 
 @nb.njit(**INNER)
 def _extend(sub: np.ndarray, level: float, cols: np.ndarray, top: np.ndarray, bottom: np.ndarray, hair: np.ndarray,
-            gap: int, most: int):
+            beard: np.ndarray, gap: int, most: int):
     """The blob's column profile moved out across short gaps onto lip parts the blob left out.
 
     A glossy lower lip's highlight or the upper teeth can cut a lip off the blob (the blob then ends at the
     mouth opening): in each column, a run of pixels above ``level`` that starts within ``gap`` pixels beyond
-    the blob's top (bottom) moves the top (bottom) to the run's far end, at most ``most`` pixels out.
+    the blob's top (bottom) moves the top (bottom) to the run's far end, at most ``most`` pixels out; not over
+    hair above (``hair`` (W,) bool) or below (``beard``).
     Returns the new (top, bottom), (W,) float32.
     """
     h, w = sub.shape
@@ -234,9 +236,9 @@ def _extend(sub: np.ndarray, level: float, cols: np.ndarray, top: np.ndarray, bo
     for x in range(w):
         if not cols[x]:
             continue
-        # Downwards from the blob's bottom.
+        # Downwards from the blob's bottom (not over a beard).
         y = int(bottom[x])
-        limit = min(int(bottom[x]) + most, h)
+        limit = y if beard[x] else min(y + most, h)
         start = -1
         for yy in range(y, min(y + gap, limit)):
             if sub[yy, x] > level:
@@ -371,9 +373,17 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, rgb: np.ndarray, layout: np
         cs = _saturation(rgb, bx0, by0, bx1, by1)
         cheeks[i] = median(cs.ravel()) if cs.size else 0.0
     sat_max = TEETH_SATURATION * median(cheeks)
+    # Hair above and below the lips (less red than the cheeks, the lips redder) is left out of the blob.
+    top, bottom, hair_top, beard = hair_trim(red_chroma(rgb, x0, y0, x1, y1), cols, top, bottom,
+                                             skin_red(rgb, boxes[5:7]), unit)
+    for x in range(len(cols)):
+        if hair_top[x] or beard[x]:
+            for y in range(mask.shape[0]):
+                if y < top[x] or y >= bottom[x]:
+                    mask[y, x] = False
     itop, ibot, ltop, lit = _opening(mask, cols, top, bottom, value[y0:y1, x0:x1],
                                      _saturation(rgb, x0, y0, x1, y1), skin, sat_max, cy - y0, unit)
-    hair = ltop > top
+    hair = (ltop > top) | hair_top
     top = ltop
     if hair.sum() >= MOUTH_MIN_COLUMNS:
         # A moustache reaches past the mouth's corners: the corners lie at the last columns holding lip.
@@ -418,7 +428,7 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, rgb: np.ndarray, layout: np
             out[c, j, 0] = a0 + (lay[c, j, 0] - l0) * (a1 - a0) / max(l1 - l0, 1e-6)
         out[c, 0, 1] = yl + (lay[c, 0, 1] - ly_l)
         out[c, 3, 1] = yr + (lay[c, 3, 1] - ly_r)
-    etop, ebot = _extend(sub, params[1], cols, top, bottom, hair, int(LIP_GAP * unit + 0.5),
+    etop, ebot = _extend(sub, params[1], cols, top, bottom, hair, beard, int(LIP_GAP * unit + 0.5),
                          int(LIP_EXTEND * unit + 0.5))
     # Outer lips: the blob's outline, moved out across gaps; inner lips: the opening inside it.
     profiles = np.empty((4, len(top)), np.float32)
