@@ -378,9 +378,8 @@ def bearded(src: Path, model: str):
                 for poly in (moustache, beard):
                     cv2.fillPoly(mask, [np.round(poly * 4).astype(np.int32)], 1.0, cv2.LINE_AA, shift=2)
                 mask = cv2.GaussianBlur(mask, (0, 0), 0.08 * unit)
-                S = np.column_stack([np.array([[across[0], -across[1]], [across[1], across[0]]]) * unit / 200.0,
-                                     right - np.array([[across[0], -across[1]], [across[1], across[0]]]) @ [100.0, 100.0]
-                                     * unit / 200.0])
+                turn = np.array([[across[0], -across[1]], [across[1], across[0]]]) * unit / 200.0
+                S = np.column_stack([turn, right - turn @ [100.0, 100.0]])
                 strands = cv2.warpAffine(tex, S, rgb.shape[1::-1], flags=cv2.INTER_LINEAR)
                 a = (HAIR_ALPHA * mask * (0.55 + 0.45 * strands))[..., None]
                 yield np.clip(a * hair + (1.0 - a) * rgb.astype(np.float32), 0, 255).astype(np.uint8)
