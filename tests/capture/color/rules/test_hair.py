@@ -13,11 +13,11 @@ def _column(*runs):
     return np.concatenate([np.full(n, v, np.float32) for v, n in runs])
 
 
-def _trim(columns, top, bottom):
+def _trim(columns, top, bottom, line=30.0):
     cr = np.stack(columns, axis=1)
     w = cr.shape[1]
     return hair_trim(cr, np.ones(w, np.bool_), np.full(w, top, np.float32), np.full(w, bottom, np.float32), SKIN,
-                     UNIT)
+                     line, UNIT)
 
 
 def test_moustache_and_beard_are_cut_at_the_lips():
@@ -44,11 +44,15 @@ def test_a_blob_without_red_lip_next_to_its_edges_is_kept():
 
 def test_hair_must_be_clearly_less_red_than_the_cheeks():
     """A run just under HAIR_CR less red than the cheeks (shade on the skin) stays in the blob; one just over is
-    cut off."""
+    cut off. An open mouth's pale upper lip over its dark inside, above a red lower lip, is no moustache: that lip
+    lies well below the lips' line."""
     near = _column((SKIN, 10), (SKIN - HAIR_CR + 1, 10), (175, 20), (SKIN, 20))
     far = _column((SKIN, 10), (SKIN - HAIR_CR - 1, 10), (175, 20), (SKIN, 20))
     top, _, above, _ = _trim([near, far], 10, 40)
     assert (top[0], above[0]) == (10, False) and (top[1], above[1]) == (20, True)
+    open_pale = _column((SKIN, 10), (SKIN - 9, 6), (140, 12), (172, 6), (SKIN, 10))
+    top, bottom, above, below = _trim([open_pale], 10, 34, line=16.0)
+    assert (top[0], bottom[0], above[0], below[0]) == (10, 34, False, False)
 
 
 def test_red_chroma_is_opencv_cr():

@@ -4,11 +4,14 @@ by their colour.
 Eq. 1's intensity rises on dark hair as on the lips, so the mouth's blob (§3.2) takes in a moustache above the
 upper lip and a beard or the chin's shade below the lower lip, and the outer lips would be drawn along the
 hair's edges. The lips are redder than the skin around them (Cr of YCrCb above the cheeks'), dark hair and
-shade on the skin less red (a darker pixel has less chroma): in each column of the blob, a run at its top
-(bottom) whose Cr lies :data:`HAIR_CR` or more under the cheeks' median Cr, with lip at least as red as the
-cheeks next to it (within :data:`HAIR_GAP`, the edge's blur and the chroma's subsampling) for
-:data:`HAIR_LIP` or more, is hair: the blob's top (bottom) moves to the lip. A column without red lip next to
-the run (pale lips, an open mouth's dark inside at the blob's edge, grey footage) keeps its blob.
+shade on the skin less red (a darker pixel has less chroma): in each column of the blob, the rows from its top
+(bottom) to the first run of lip (:data:`HAIR_LIP` or more of pixels at least as red as the cheeks' median
+Cr) are hair if they are :data:`HAIR_LIP` or more, their mean Cr lies :data:`HAIR_CR` or more under the
+cheeks' and no run of :data:`HAIR_LIP` in them but the one next to the lip (the edge's blur) does not (a pale
+lip is not hair: sparse strands leave only specks of skin between them), and the lip starts above (ends below) :data:`HAIR_SLACK` beyond the layout's line between the lips
+(a moustache lies over the upper lip, a beard under the lower one; pale lips do not make a pale upper lip and
+the opening under it a moustache): the blob's top (bottom) moves to the lip. A column without such lip
+(pale lips, an open mouth's dark inside alone, grey footage) keeps its blob.
 
 Conventions: rectangle pixels (the mouth rectangle's), x right, y down; Cr as OpenCV's 8-bit YCrCb
 (128 + 0.713 (R - Y)); ``unit`` crop pixels per face unit.
@@ -22,12 +25,12 @@ import numpy as np
 from facepuppet._util.jit import INNER
 from facepuppet.capture.color.rules.kernels import median
 
-__all__ = ["HAIR_CR", "HAIR_LIP", "HAIR_GAP", "red_chroma", "skin_red", "hair_trim"]
+__all__ = ["HAIR_CR", "HAIR_LIP", "HAIR_SLACK", "red_chroma", "skin_red", "hair_trim"]
 
 # Tuning constants   unit          what it does
 HAIR_CR = 8.0        # Cr levels     how much less red than the cheeks a pixel of hair (or shade) at the edge is
 HAIR_LIP = 0.04      # face units    least run of lip (as red as the cheeks or redder) next to the hair
-HAIR_GAP = 0.05      # face units    farthest the lip's run may start beyond the hair's end
+HAIR_SLACK = 0.15    # face units    how far below (above) the layout's lips' line a moustache (beard) may end
 
 
 @nb.njit(**INNER)
@@ -58,34 +61,47 @@ def skin_red(rgb: np.ndarray, boxes: np.ndarray) -> float:
 
 
 @nb.njit(**INNER)
-def _lip_after(cr: np.ndarray, x: int, start: int, step: int, stop: int, lip: float, gap: int, least: int) -> bool:
-    """Whether a run of ``least`` pixels of Cr >= ``lip`` starts within ``gap`` pixels of ``start`` going ``step``
-    down column ``x`` of ``cr``, before ``stop`` (exclusive)."""
+def _lip_run(cr: np.ndarray, x: int, start: int, step: int, stop: int, lip: float, least: int) -> int:
+    """The first pixel of the first run of ``least`` pixels of Cr >= ``lip`` down column ``x`` of ``cr`` from
+    ``start`` going ``step`` (1 down, -1 up), before ``stop`` (exclusive); -1 if there is none."""
+    n = 0
     y = start
-    for _ in range(gap + 1):
-        if (y - stop) * step >= 0:
-            return False
-        if cr[y, x] >= lip:
-            n = 0
-            while (y - stop) * step < 0 and cr[y, x] >= lip:
-                n += 1
-                if n >= least:
-                    return True
-                y += step
-            return False
+    while (y - stop) * step < 0:
+        n = n + 1 if cr[y, x] >= lip else 0
+        if n >= least:
+            return y - step * (least - 1)
         y += step
-    return False
+    return -1
 
 
 @nb.njit(**INNER)
-def hair_trim(cr: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.ndarray, skin: float, unit: float):
+def _mean(cr: np.ndarray, x: int, a: int, b: int) -> float:
+    """Mean of column ``x`` of ``cr`` over rows ``a`` .. ``b - 1``."""
+    total = 0.0
+    for y in range(a, b):
+        total += cr[y, x]
+    return total / max(b - a, 1)
+
+
+@nb.njit(**INNER)
+def _longest_run(cr: np.ndarray, x: int, a: int, b: int, level: float) -> int:
+    """The longest run of pixels of Cr >= ``level`` in column ``x`` of ``cr`` over rows ``a`` .. ``b - 1``."""
+    best = n = 0
+    for y in range(a, b):
+        n = n + 1 if cr[y, x] >= level else 0
+        best = max(best, n)
+    return best
+
+
+@nb.njit(**INNER)
+def hair_trim(cr: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.ndarray, skin: float, line: float,
+              unit: float):
     """The blob's column profile ``top``, ``bottom`` (W,) with hair at its top and bottom left out (module
     docstring); ``cr`` (H, W) the rectangle's Cr, ``cols`` (W,) bool the columns holding the blob, ``skin`` the
-    cheeks' median Cr. Returns (top, bottom) (W,) float32 and per column whether hair was left out at the top and
-    at the bottom, (W,) bool each."""
-    hair_lvl, lip = skin - HAIR_CR, skin
+    cheeks' median Cr, ``line`` the y of the layout's line between the lips. Returns (top, bottom) (W,) float32
+    and per column whether hair was left out at the top and at the bottom, (W,) bool each."""
     least = max(int(HAIR_LIP * unit + 0.5), 1)
-    gap = int(HAIR_GAP * unit + 0.5)
+    slack = HAIR_SLACK * unit
     otop, obot = top.copy(), bottom.copy()
     above = np.zeros(len(cols), np.bool_)
     below = np.zeros(len(cols), np.bool_)
@@ -93,16 +109,15 @@ def hair_trim(cr: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.ndar
         if not cols[x]:
             continue
         a, b = int(top[x]), int(bottom[x])
-        y = a
-        while y < b and cr[y, x] < hair_lvl:
-            y += 1
-        if y - a >= least and _lip_after(cr, x, y, 1, b, lip, gap, least):
+        y = _lip_run(cr, x, a, 1, b, skin, least)
+        if y - a >= least and y <= line + slack and _mean(cr, x, a, y) <= skin - HAIR_CR and \
+                _longest_run(cr, x, a, y - least, skin - HAIR_CR) < least:
             otop[x] = y
             above[x] = True
-        y = b - 1
-        while y >= int(otop[x]) and cr[y, x] < hair_lvl:
-            y -= 1
-        if b - 1 - y >= least and _lip_after(cr, x, y, -1, int(otop[x]) - 1, lip, gap, least):
+        a = int(otop[x])
+        y = _lip_run(cr, x, b - 1, -1, a - 1, skin, least)
+        if y >= 0 and b - 1 - y >= least and y >= line - slack and _mean(cr, x, y + 1, b) <= skin - HAIR_CR and \
+                _longest_run(cr, x, y + 1 + least, b, skin - HAIR_CR) < least:
             obot[x] = y + 1
             below[x] = True
     return otop, obot, above, below

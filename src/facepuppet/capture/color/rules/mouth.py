@@ -375,7 +375,7 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, rgb: np.ndarray, layout: np
     sat_max = TEETH_SATURATION * median(cheeks)
     # Hair above and below the lips (less red than the cheeks, the lips redder) is left out of the blob.
     top, bottom, hair_top, beard = hair_trim(red_chroma(rgb, x0, y0, x1, y1), cols, top, bottom,
-                                             skin_red(rgb, boxes[5:7]), unit)
+                                             skin_red(rgb, boxes[5:7]), cy - y0, unit)
     for x in range(len(cols)):
         if hair_top[x] or beard[x]:
             for y in range(mask.shape[0]):
