@@ -358,6 +358,6 @@ def test_lips_under_a_moustache_and_over_a_beard(performer):
         err.append([np.linalg.norm(bezier_points(r[_IDX[n]], 9)[:, None] - bezier_points(f.curves[_IDX[n]], 64)[None],
                                    axis=-1).min(axis=1).mean() / span for n in lips])
     err = np.mean(err, axis=0)
-    # Measured: NME 0.026 / 0.040 / 0.032 / 0.033 (upper and lower outer, upper and lower inner); with the hair
+    # Measured: NME 0.030 / 0.032 / 0.028 / 0.025 (upper and lower outer, upper and lower inner); with the hair
     # in the blob 0.036 / 0.048 / 0.043 / 0.048.
-    assert err[0] < 0.031 and err.mean() < 0.037, err
+    assert err[0] < 0.033 and err.mean() < 0.035, err
