@@ -50,7 +50,7 @@ The bars of the shared clips are NME <= 0.05, jitter ratio <= 1.5, coverage >= 0
 
 Run: ``python benchmarks/eval_robustness.py [--clips performer_a performer_c] [--variants dim warm noisy small
 face80 cool rolled mirrored portrait darker lowres backlit haze long short grey hd wood beige skin_object poster
-stage_hand] [--assets PATH] [--jobs 2]``
+stage_hand beard] [--assets PATH] [--jobs 2]``
 (about 20 s per copy of a or c on one core, MediaPipe's reference included; ``performer_b_exaggerated`` is
 three times as long).
 """
@@ -198,8 +198,10 @@ def altered(rgb: np.ndarray, variant: str, rng: np.random.Generator, unit: float
     elif variant == "hd":
         h, w = rgb.shape[:2]
         big = cv2.resize(rgb, (int(round(w * HD[1] / h)), HD[1]), interpolation=cv2.INTER_CUBIC)
-        side = max(HD[0] - big.shape[1], 0)
-        return cv2.copyMakeBorder(big, 0, 0, side // 2, side - side // 2, cv2.BORDER_REFLECT)[:, :HD[0]]
+        side = HD[0] - big.shape[1]
+        if side < 0:                                    # wider than 16:9: the middle kept
+            return np.ascontiguousarray(big[:, -side // 2:-side // 2 + HD[0]])
+        return cv2.copyMakeBorder(big, 0, 0, side // 2, side - side // 2, cv2.BORDER_REFLECT)
     else:
         raise ValueError(f"unknown variant {variant!r}; choose from {', '.join(VARIANTS)}")
     return np.clip(x + 0.5, 0, 255).astype(np.uint8)

@@ -303,7 +303,6 @@ def test_a_grey_scene_without_a_face_is_no_face():
     assert seen >= 3, seen                  # measured: windows in 5 of the 40 copies
 
 
-
 def test_grey_eyes_are_not_drawn_into_their_sockets(performer_a):
     """Grey footage of a face whose eye sockets are shadowed: without colour, Eq. 1's intensity is the darkness
     alone and the sockets' shading rises with the eyes; the eye search reads a C of stronger contrast there, so

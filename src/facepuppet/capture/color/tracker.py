@@ -307,7 +307,7 @@ class ColorTracker:
         it.crop = crop
         it.raw, it.C, it.value, it.eyes = feature_intensity(
             crop, it.weights.astype(np.float64), self._hue, self.profile.lip_hue.min_saturation,
-            self._cheek_boxes, self._eye_boxes, followed)
+            self._cheek_boxes, self._eye_boxes, grey_contrast=followed)
         return it.C
 
     def eye_centres(self, C: np.ndarray, anchors: np.ndarray | None = None, *, dark: bool = False) -> np.ndarray | None:

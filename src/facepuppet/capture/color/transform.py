@@ -225,7 +225,7 @@ def _eq1_row(v: np.ndarray, g: np.ndarray, hue_term: np.ndarray, out: np.ndarray
 
 
 def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarray, min_saturation: float,
-                      skin_boxes: np.ndarray, feature_boxes: np.ndarray, grey_contrast: bool = True):
+                      skin_boxes: np.ndarray, feature_boxes: np.ndarray, *, grey_contrast: bool = False):
     """Eq. 1 and the contrast C over a face crop in one pass (as :func:`transform` and :func:`contrast`).
 
     I = w1 (V - G) / V + (w3 - w2) V + w2 + w4 G(H) with 8-bit V and G as in

@@ -12,6 +12,7 @@ from facepuppet.capture.color.rules.kernels import interp, median, quantile, qua
 from facepuppet.capture.color.transform import (
     DEFAULT_WEIGHTS,
     GREY_CONTRAST,
+    GREY_SPREAD,
     LipHue,
     contrast,
     feature_intensity,
@@ -112,27 +113,40 @@ def test_feature_intensity_is_eq1_then_contrast():
     assert np.allclose(C, contrast(ref, low + 0.15 * (feat - low), low + 0.75 * (feat - low)), atol=1e-4)
 
 
-def test_the_eyes_contrast_rises_on_skin_without_colour():
-    """A grey crop (R = G = B): C is as on any crop, and the eye search's C takes
-    GREY_CONTRAST's fractions of the way from the skin level to the feature level; a crop in colour, or one
-    transformed without ``grey_contrast`` (a candidate of the search for the face), gives C itself."""
+def test_the_eyes_contrast_rises_on_a_crop_without_colour():
+    """A grey crop (R = G = B): C is as on any crop, and the eye search's C takes GREY_CONTRAST's fractions of
+    the way from the skin level to the feature level; a crop whose max - min of R, G, B is 5 everywhere (between
+    GREY_SPREAD's ends), fractions interpolated between the two; a crop in colour, or one transformed without
+    ``grey_contrast`` (a candidate of the search for the face), gives C itself."""
     rng = np.random.default_rng(2)
-    grey = cv2.GaussianBlur(rng.integers(0, 256, (40, 50)).astype(np.uint8), (0, 0), 1.0)
+    grey = cv2.GaussianBlur(rng.integers(0, 250, (40, 50)).astype(np.uint8), (0, 0), 1.0)
     crop = np.repeat(grey[..., None], 3, axis=2)
     table = lip_hue_table(LipHue())
     skin = np.array([[0, 0, 10, 10], [40, 30, 50, 40]], dtype=np.int64)
     feats = np.array([[10, 10, 30, 20]], dtype=np.int64)
-    raw, C, _, eyes = feature_intensity(crop, DEFAULT_WEIGHTS.astype(float), table, 0.12, skin, feats)
-    low = np.median(np.concatenate([raw[0:10, 0:10].ravel(), raw[30:40, 40:50].ravel()]))
-    feat = raw[10:20, 10:30].max()
-    assert np.allclose(C, contrast(raw, low + 0.15 * (feat - low), low + 0.75 * (feat - low)), atol=1e-4)
-    lo, hi = GREY_CONTRAST
-    assert np.allclose(eyes, contrast(raw, low + lo * (feat - low), low + hi * (feat - low)), atol=1e-4)
+
+    def expected(raw, share):
+        low = np.median(np.concatenate([raw[0:10, 0:10].ravel(), raw[30:40, 40:50].ravel()]))
+        feat = raw[10:20, 10:30].max()
+        lo = 0.15 + share * (GREY_CONTRAST[0] - 0.15)
+        hi = 0.75 + share * (GREY_CONTRAST[1] - 0.75)
+        return contrast(raw, low + lo * (feat - low), low + hi * (feat - low))
+
+    w = DEFAULT_WEIGHTS.astype(float)
+    raw, C, _, eyes = feature_intensity(crop, w, table, 0.12, skin, feats, grey_contrast=True)
+    assert np.allclose(C, expected(raw, 0.0), atol=1e-4)
+    assert np.allclose(eyes, expected(raw, 1.0), atol=1e-4)
     assert eyes.sum() < C.sum()
-    _, C2, _, eyes2 = feature_intensity(crop, DEFAULT_WEIGHTS.astype(float), table, 0.12, skin, feats, False)
+    tinted = crop.copy()
+    tinted[..., 0] += 5                                       # max - min = 5: share (8 - 5) / (8 - 3)
+    share = (GREY_SPREAD[1] - 5.0) / (GREY_SPREAD[1] - GREY_SPREAD[0])
+    raw, C, _, eyes = feature_intensity(tinted, w, table, 0.12, skin, feats, grey_contrast=True)
+    assert np.allclose(C, expected(raw, 0.0), atol=1e-4)
+    assert np.allclose(eyes, expected(raw, share), atol=1e-4)
+    _, C2, _, eyes2 = feature_intensity(crop, w, table, 0.12, skin, feats)
     assert np.array_equal(eyes2, C2)
     warm = np.clip(crop * np.array([1.0, 0.7, 0.55]), 0, 255).astype(np.uint8)     # R - B 0.45 of R
-    _, C3, _, eyes3 = feature_intensity(warm, DEFAULT_WEIGHTS.astype(float), table, 0.12, skin, feats)
+    _, C3, _, eyes3 = feature_intensity(warm, w, table, 0.12, skin, feats, grey_contrast=True)
     assert np.array_equal(eyes3, C3)
 
 

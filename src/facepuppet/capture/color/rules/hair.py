@@ -4,14 +4,19 @@ by their colour.
 Eq. 1's intensity rises on dark hair as on the lips, so the mouth's blob (§3.2) takes in a moustache above the
 upper lip and a beard or the chin's shade below the lower lip, and the outer lips would be drawn along the
 hair's edges. The lips are redder than the skin around them (Cr of YCrCb above the cheeks'), dark hair and
-shade on the skin less red (a darker pixel has less chroma): in each column of the blob, the rows from its top
-(bottom) to the first run of lip (:data:`HAIR_LIP` or more of pixels at least as red as the cheeks' median
-Cr) are hair if they are :data:`HAIR_LIP` or more, their mean Cr lies :data:`HAIR_CR` or more under the
-cheeks' and no run of :data:`HAIR_LIP` in them but the one next to the lip (the edge's blur) does not (a pale
-lip is not hair: sparse strands leave only specks of skin between them), and the lip starts above (ends below) :data:`HAIR_SLACK` beyond the layout's line between the lips
-(a moustache lies over the upper lip, a beard under the lower one; pale lips do not make a pale upper lip and
-the opening under it a moustache): the blob's top (bottom) moves to the lip. A column without such lip
-(pale lips, an open mouth's dark inside alone, grey footage) keeps its blob.
+shade on the skin less red (a darker pixel has less chroma). In each column of the blob, the rows from its top
+(bottom) to the first run of lip (:data:`HAIR_LIP` or more of pixels at least as red as the cheeks' median Cr)
+are hair, and the blob's top (bottom) moves to the lip, if
+
+- they are :data:`HAIR_LIP` or more and their mean Cr lies :data:`HAIR_CR` or more under the cheeks';
+- no run of :data:`HAIR_LIP` or more of pixels less than :data:`HAIR_CR` under the cheeks lies in them but at
+  their two ends (the blur of the blob's edge and of the lip's): sparse strands leave only specks of skin
+  between them, a pale lip makes a run;
+- the lip starts above (ends below) :data:`HAIR_LINE` beyond the layout's line between the lips: a moustache
+  lies over the upper lip, a beard under the lower one, and an open mouth's pale upper lip with the dark
+  opening under it, over a red lower lip, is no moustache.
+
+A column without such lip (pale lips, an open mouth's dark inside alone, grey footage) keeps its blob.
 
 Conventions: rectangle pixels (the mouth rectangle's), x right, y down; Cr as OpenCV's 8-bit YCrCb
 (128 + 0.713 (R - Y)); ``unit`` crop pixels per face unit.
@@ -25,12 +30,12 @@ import numpy as np
 from facepuppet._util.jit import INNER
 from facepuppet.capture.color.rules.kernels import median
 
-__all__ = ["HAIR_CR", "HAIR_LIP", "HAIR_SLACK", "red_chroma", "skin_red", "hair_trim"]
+__all__ = ["HAIR_CR", "HAIR_LIP", "HAIR_LINE", "red_chroma", "skin_red", "hair_trim"]
 
 # Tuning constants   unit          what it does
 HAIR_CR = 8.0        # Cr levels     how much less red than the cheeks a pixel of hair (or shade) at the edge is
 HAIR_LIP = 0.04      # face units    least run of lip (as red as the cheeks or redder) next to the hair
-HAIR_SLACK = 0.15    # face units    how far below (above) the layout's lips' line a moustache (beard) may end
+HAIR_LINE = 0.15     # face units    how far below (above) the layout's lips' line a moustache (beard) may end
 
 
 @nb.njit(**INNER)
@@ -62,7 +67,7 @@ def skin_red(rgb: np.ndarray, boxes: np.ndarray) -> float:
 
 @nb.njit(**INNER)
 def _lip_run(cr: np.ndarray, x: int, start: int, step: int, stop: int, lip: float, least: int) -> int:
-    """The first pixel of the first run of ``least`` pixels of Cr >= ``lip`` down column ``x`` of ``cr`` from
+    """The first pixel of the first run of ``least`` pixels of Cr >= ``lip`` along column ``x`` of ``cr`` from
     ``start`` going ``step`` (1 down, -1 up), before ``stop`` (exclusive); -1 if there is none."""
     n = 0
     y = start
@@ -101,7 +106,7 @@ def hair_trim(cr: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.ndar
     cheeks' median Cr, ``line`` the y of the layout's line between the lips. Returns (top, bottom) (W,) float32
     and per column whether hair was left out at the top and at the bottom, (W,) bool each."""
     least = max(int(HAIR_LIP * unit + 0.5), 1)
-    slack = HAIR_SLACK * unit
+    slack = HAIR_LINE * unit
     otop, obot = top.copy(), bottom.copy()
     above = np.zeros(len(cols), np.bool_)
     below = np.zeros(len(cols), np.bool_)
@@ -111,13 +116,13 @@ def hair_trim(cr: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.ndar
         a, b = int(top[x]), int(bottom[x])
         y = _lip_run(cr, x, a, 1, b, skin, least)
         if y - a >= least and y <= line + slack and _mean(cr, x, a, y) <= skin - HAIR_CR and \
-                _longest_run(cr, x, a, y - least, skin - HAIR_CR) < least:
+                _longest_run(cr, x, a + least, y - least, skin - HAIR_CR) < least:
             otop[x] = y
             above[x] = True
         a = int(otop[x])
         y = _lip_run(cr, x, b - 1, -1, a - 1, skin, least)
         if y >= 0 and b - 1 - y >= least and y >= line - slack and _mean(cr, x, y + 1, b) <= skin - HAIR_CR and \
-                _longest_run(cr, x, y + 1 + least, b, skin - HAIR_CR) < least:
+                _longest_run(cr, x, y + 1 + least, b - least, skin - HAIR_CR) < least:
             obot[x] = y + 1
             below[x] = True
     return otop, obot, above, below

@@ -378,15 +378,14 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, rgb: np.ndarray, layout: np
                                              skin_red(rgb, boxes[5:7]), cy - y0, unit)
     for x in range(len(cols)):
         if hair_top[x] or beard[x]:
-            for y in range(mask.shape[0]):
-                if y < top[x] or y >= bottom[x]:
-                    mask[y, x] = False
+            mask[:int(top[x]), x] = 0
+            mask[int(bottom[x]):, x] = 0
     itop, ibot, ltop, lit = _opening(mask, cols, top, bottom, value[y0:y1, x0:x1],
                                      _saturation(rgb, x0, y0, x1, y1), skin, sat_max, cy - y0, unit)
     hair = (ltop > top) | hair_top
     top = ltop
     if hair.sum() >= MOUTH_MIN_COLUMNS:
-        # A moustache reaches past the mouth's corners: the corners lie at the last columns holding lip.
+        # A moustache or a beard reaches past the mouth's corners: the corners lie at the last columns holding lip.
         lips_at = np.nonzero(cols & lit)[0]
         if len(lips_at) >= MOUTH_MIN_COLUMNS:
             xs = lips_at
