@@ -385,7 +385,7 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, rgb: np.ndarray, layout: np
     hair = (ltop > top) | hair_top
     top = ltop
     if hair.sum() >= MOUTH_MIN_COLUMNS:
-        # A moustache or a beard reaches past the mouth's corners: the corners lie at the last columns holding lip.
+        # A moustache reaches past the mouth's corners: the corners lie at the last columns holding lip.
         lips_at = np.nonzero(cols & lit)[0]
         if len(lips_at) >= MOUTH_MIN_COLUMNS:
             xs = lips_at
