@@ -70,12 +70,12 @@ def test_red_chroma_is_opencv_cr():
 def test_each_condition_keeps_what_is_not_hair():
     """Columns that only one condition keeps: a pale lip (a run at the cheeks' Cr less 4) between the hair and the
     red lip; specks a little less red than the cheeks throughout (mean above the hair's level); an open mouth's
-    dark inside under a red upper lip, whose lip ends above the lips' line (no beard). A blurred blob edge (two
-    pixels nearly as red as the cheeks) before the hair does not stop the hair being cut."""
+    dark inside under a red upper lip, whose lip ends above the lips' line (no beard). Hair whose run is broken
+    only next to the lip (the lip's blurred edge) is cut."""
     pale_between = _column((SKIN, 10), (140, 8), (SKIN - 4, 5), (175, 8), (SKIN, 9))
     specks = _column((SKIN, 10), *[(v, 1) for v in (150, 157) * 6], (175, 8), (SKIN, 10))
     open_mouth = _column((SKIN, 10), (175, 6), (140, 14), (SKIN, 10))
-    blurred = _column((SKIN, 10), (SKIN - 5, 2), (140, 8), (175, 10), (SKIN, 10))
+    blurred = _column((SKIN, 10), (140, 8), (SKIN - 5, 2), (175, 10), (SKIN, 10))
     top, bottom, above, below = _trim([pale_between, specks, open_mouth, blurred], 10, 30)
     np.testing.assert_array_equal(above, [False, False, False, True])
     np.testing.assert_array_equal(below, False)

@@ -9,9 +9,10 @@ shade on the skin less red (a darker pixel has less chroma). In each column of t
 are hair, and the blob's top (bottom) moves to the lip, if
 
 - they are :data:`HAIR_LIP` or more and their mean Cr lies :data:`HAIR_CR` or more under the cheeks';
-- no run of :data:`HAIR_LIP` or more of pixels less than :data:`HAIR_CR` under the cheeks lies in them but at
-  their two ends (the blur of the blob's edge and of the lip's): sparse strands leave only specks of skin
-  between them, a pale lip makes a run;
+- no run of :data:`HAIR_LIP` or more of pixels less than :data:`HAIR_CR` under the cheeks lies in them but
+  next to the lip (the blur of the lip's edge): sparse strands leave only specks of skin between them, a pale
+  lip makes a run (and so does a blob's edge that is hardly less red than the cheeks: such a column keeps its
+  blob);
 - the lip starts above (ends below) :data:`HAIR_LINE` beyond the layout's line between the lips: a moustache
   lies over the upper lip, a beard under the lower one, and an open mouth's pale upper lip with the dark
   opening under it, over a red lower lip, is no moustache.
@@ -116,13 +117,13 @@ def hair_trim(cr: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.ndar
         a, b = int(top[x]), int(bottom[x])
         y = _lip_run(cr, x, a, 1, b, skin, least)
         if y - a >= least and y <= line + slack and _mean(cr, x, a, y) <= skin - HAIR_CR and \
-                _longest_run(cr, x, a + least, y - least, skin - HAIR_CR) < least:
+                _longest_run(cr, x, a, y - least, skin - HAIR_CR) < least:
             otop[x] = y
             above[x] = True
         a = int(otop[x])
         y = _lip_run(cr, x, b - 1, -1, a - 1, skin, least)
         if y >= 0 and b - 1 - y >= least and y >= line - slack and _mean(cr, x, y + 1, b) <= skin - HAIR_CR and \
-                _longest_run(cr, x, y + 1 + least, b - least, skin - HAIR_CR) < least:
+                _longest_run(cr, x, y + 1 + least, b, skin - HAIR_CR) < least:
             obot[x] = y + 1
             below[x] = True
     return otop, obot, above, below
