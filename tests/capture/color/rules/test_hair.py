@@ -81,3 +81,7 @@ def test_each_condition_keeps_what_is_not_hair():
     np.testing.assert_array_equal(below, False)
     np.testing.assert_array_equal(top, [10, 10, 10, 20])
     np.testing.assert_array_equal(bottom, 30)
+    # The opening under a red upper lip that ends just under the lips' line (a wide-open mouth, its lower lip
+    # pale and dark): no beard.
+    _, bottom, _, below = _trim([open_mouth], 10, 30, line=14.0)
+    assert (bottom[0], below[0]) == (30, False)

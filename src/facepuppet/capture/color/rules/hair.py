@@ -13,9 +13,10 @@ are hair, and the blob's top (bottom) moves to the lip, if
   next to the lip (the blur of the lip's edge): sparse strands leave only specks of skin between them, a pale
   lip makes a run (and so does a blob's edge that is hardly less red than the cheeks: such a column keeps its
   blob);
-- the lip starts above (ends below) :data:`HAIR_LINE` beyond the layout's line between the lips: a moustache
-  lies over the upper lip, a beard under the lower one, and an open mouth's pale upper lip with the dark
-  opening under it, over a red lower lip, is no moustache.
+- a moustache's lip starts above :data:`HAIR_LINE` under the layout's line between the lips, a beard's lip
+  ends :data:`BEARD_LINE` or more under it: a moustache lies over the upper lip, a beard under the lower one.
+  An open mouth's pale upper lip with the dark opening under it, over a red lower lip, is no moustache, and its
+  dark opening with a pale lower lip, under a red upper lip, no beard.
 
 A column without such lip (pale lips, an open mouth's dark inside alone, grey footage) keeps its blob.
 
@@ -31,12 +32,13 @@ import numpy as np
 from facepuppet._util.jit import INNER
 from facepuppet.capture.color.rules.kernels import median
 
-__all__ = ["HAIR_CR", "HAIR_LIP", "HAIR_LINE", "red_chroma", "skin_red", "hair_trim"]
+__all__ = ["HAIR_CR", "HAIR_LIP", "HAIR_LINE", "BEARD_LINE", "red_chroma", "skin_red", "hair_trim"]
 
 # Tuning constants   unit          what it does
 HAIR_CR = 8.0        # Cr levels     how much less red than the cheeks a pixel of hair (or shade) at the edge is
 HAIR_LIP = 0.04      # face units    least run of lip (as red as the cheeks or redder) next to the hair
-HAIR_LINE = 0.15     # face units    how far below (above) the layout's lips' line a moustache (beard) may end
+HAIR_LINE = 0.15     # face units    how far below the layout's lips' line a moustache may end
+BEARD_LINE = 0.08    # face units    least depth under the layout's lips' line of a beard's start (the lower lip's end)
 
 
 @nb.njit(**INNER)
@@ -108,6 +110,7 @@ def hair_trim(cr: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.ndar
     and per column whether hair was left out at the top and at the bottom, (W,) bool each."""
     least = max(int(HAIR_LIP * unit + 0.5), 1)
     slack = HAIR_LINE * unit
+    below_line = BEARD_LINE * unit
     otop, obot = top.copy(), bottom.copy()
     above = np.zeros(len(cols), np.bool_)
     below = np.zeros(len(cols), np.bool_)
@@ -122,7 +125,7 @@ def hair_trim(cr: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.ndar
             above[x] = True
         a = int(otop[x])
         y = _lip_run(cr, x, b - 1, -1, a - 1, skin, least)
-        if y >= 0 and b - 1 - y >= least and y >= line - slack and _mean(cr, x, y + 1, b) <= skin - HAIR_CR and \
+        if y >= 0 and b - 1 - y >= least and y >= line + below_line and _mean(cr, x, y + 1, b) <= skin - HAIR_CR and \
                 _longest_run(cr, x, y + 1 + least, b, skin - HAIR_CR) < least:
             obot[x] = y + 1
             below[x] = True
