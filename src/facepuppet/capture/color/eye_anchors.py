@@ -34,7 +34,7 @@ from facepuppet.errors import FacepuppetError
 __all__ = ["EYE_STEPS", "EYE_LEAST", "EYE_TALL", "EYE_TALL_LEVEL", "OPENING", "OPENING_TABLE", "eye_centres",
            "darkness", "without_long_runs", "without_tall_runs", "dark_centres",
            "eye_opening_centres", "eye_centres_of",
-           "calibrated_anchors", "shared_landmarker", "landmark_curves"]
+           "calibrated_anchors", "shared_landmarker", "landmark_curves", "skin_reference"]
 
 log = logging.getLogger(__name__)
 
@@ -199,7 +199,7 @@ def eye_centres(C: np.ndarray, anchors: np.ndarray, half_w: int, half_h: int):
 
 
 @nb.njit(**KERNEL)
-def _skin_reference(crop: np.ndarray, cheeks: np.ndarray) -> np.ndarray:
+def skin_reference(crop: np.ndarray, cheeks: np.ndarray) -> np.ndarray:
     """(Y, Cr - 128, Cb - 128) medians over the cheek rectangles ``cheeks`` (K, 4) of the crop (H, W, 3) uint8."""
     n = 0
     for b in range(cheeks.shape[0]):
@@ -223,7 +223,7 @@ def _skin_reference(crop: np.ndarray, cheeks: np.ndarray) -> np.ndarray:
 @nb.njit(**KERNEL)
 def darkness(crop: np.ndarray, skin_luma: float, low: float, high: float) -> np.ndarray:
     """(H, W) float32 in [0, 1]: how much darker than the skin each pixel of the crop (H, W, 3) uint8 RGB is, a
-    smoothstep of (skin_luma - Y) / skin_luma from ``low`` to ``high`` (luma Y as :func:`_skin_reference`'s).
+    smoothstep of (skin_luma - Y) / skin_luma from ``low`` to ``high`` (luma Y as :func:`skin_reference`'s).
 
     Lashes, iris and pupil are darker than the skin around them whatever the complexion and the light's colour;
     the contrast C measures a colour feature whose scale is set by the darkest, most saturated pixels of the
@@ -386,7 +386,7 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
     ok, out = eye_centres(C, anchors, half_w, half_h)
     if not ok:
         return ok, out
-    skin = _skin_reference(crop, cheeks)
+    skin = skin_reference(crop, cheeks)
     # The eye's place by the darkness, in a window reaching dark_above over it (the brows lie above).
     if dark and skin[0] > 1.0:
         above = min(int(np.round(table[16] * unit)), half_h)

@@ -2,7 +2,8 @@
 
 import numpy as np
 
-from facepuppet.capture.color.rules.hair import HAIR_CR, hair_trim, red_chroma, skin_red
+from facepuppet.capture.color.eye_anchors import skin_reference
+from facepuppet.capture.color.rules.hair import HAIR_CR, hair_trim, red_chroma
 
 SKIN = 160.0
 UNIT = 50.0                 # crop pixels per face unit: runs of 2 px and more count as lip (HAIR_LIP 0.04)
@@ -64,7 +65,7 @@ def test_red_chroma_is_opencv_cr():
     np.testing.assert_allclose(red_chroma(rgb, 0, 0, 7, 6), ref, atol=1.0)
     boxes = np.array([[0, 0, 3, 6], [4, 0, 7, 6]], dtype=np.int64)
     both = np.concatenate([ref[:, 0:3].ravel(), ref[:, 4:7].ravel()])
-    assert abs(skin_red(rgb, boxes) - np.median(both)) <= 1.0
+    assert abs(128.0 + skin_reference(rgb, boxes)[1] - np.median(both)) <= 1.0
 
 
 def test_each_condition_keeps_what_is_not_hair():

@@ -30,9 +30,8 @@ import numba as nb
 import numpy as np
 
 from facepuppet._util.jit import INNER
-from facepuppet.capture.color.rules.kernels import median
 
-__all__ = ["HAIR_CR", "HAIR_LIP", "HAIR_LINE", "BEARD_LINE", "red_chroma", "skin_red", "hair_trim"]
+__all__ = ["HAIR_CR", "HAIR_LIP", "HAIR_LINE", "BEARD_LINE", "red_chroma", "hair_trim"]
 
 # Tuning constants   unit          what it does
 HAIR_CR = 8.0        # Cr levels     how much less red than the cheeks a pixel of hair (or shade) at the edge is
@@ -50,22 +49,6 @@ def red_chroma(rgb: np.ndarray, x0: int, y0: int, x1: int, y1: int) -> np.ndarra
             r, g, b = float(rgb[y, x, 0]), float(rgb[y, x, 1]), float(rgb[y, x, 2])
             out[y - y0, x - x0] = 128.0 + 0.713 * (r - (0.299 * r + 0.587 * g + 0.114 * b))
     return out
-
-
-@nb.njit(**INNER)
-def skin_red(rgb: np.ndarray, boxes: np.ndarray) -> float:
-    """Median Cr of the pixels of the rectangles ``boxes`` (K, 4) of ``rgb`` together (the cheeks)."""
-    n = 0
-    for k in range(len(boxes)):
-        n += max(boxes[k, 2] - boxes[k, 0], 0) * max(boxes[k, 3] - boxes[k, 1], 0)
-    vals = np.empty(max(n, 1))
-    i = 0
-    for k in range(len(boxes)):
-        cr = red_chroma(rgb, boxes[k, 0], boxes[k, 1], boxes[k, 2], boxes[k, 3])
-        for v in cr.ravel():
-            vals[i] = v
-            i += 1
-    return median(vals[:i]) if i else 128.0
 
 
 @nb.njit(**INNER)

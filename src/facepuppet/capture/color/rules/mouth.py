@@ -14,7 +14,8 @@ import numpy as np
 
 from facepuppet._util.jit import INNER, KERNEL
 from facepuppet.capture.color.blobs import blob_kernel, label8, open_mask
-from facepuppet.capture.color.rules.hair import hair_trim, red_chroma, skin_red
+from facepuppet.capture.color.eye_anchors import skin_reference
+from facepuppet.capture.color.rules.hair import hair_trim, red_chroma
 from facepuppet.capture.color.rules.kernels import median, median_of_boxes, mid_shift, quantile, sample_profile
 from facepuppet.capture.curves import CURVE_NAMES
 
@@ -375,7 +376,7 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, rgb: np.ndarray, layout: np
     sat_max = TEETH_SATURATION * median(cheeks)
     # Hair above and below the lips (less red than the cheeks, the lips redder) is left out of the blob.
     top, bottom, hair_top, beard = hair_trim(red_chroma(rgb, x0, y0, x1, y1), cols, top, bottom,
-                                             skin_red(rgb, boxes[5:7]), cy - y0, unit)
+                                             128.0 + skin_reference(rgb, boxes[5:7])[1], cy - y0, unit)
     for x in range(len(cols)):
         if hair_top[x] or beard[x]:
             mask[:int(top[x]), x] = 0
