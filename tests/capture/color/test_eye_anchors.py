@@ -4,7 +4,8 @@ import cv2
 import numpy as np
 import pytest
 
-from facepuppet.capture.color.eye_anchors import calibrated_anchors, eye_centres_of
+from facepuppet.capture.color.eye_anchors import eye_centres_of
+from facepuppet.capture.color.eye_calibration import calibrated_anchors
 from facepuppet.capture.color.profile import GENERIC_LAYOUT
 from facepuppet.capture.curves import CURVE_NAMES, bezier_points
 

@@ -20,12 +20,8 @@ import numpy as np
 
 from facepuppet.capture.color.config import ColorTrackerConfig
 from facepuppet.capture.color.detect import FaceWindow, face_windows, search_area
-from facepuppet.capture.color.eye_anchors import (
-    calibrated_anchors,
-    eye_centres_of,
-    landmark_curves,
-    shared_landmarker,
-)
+from facepuppet.capture.color.eye_anchors import eye_centres_of
+from facepuppet.capture.color.eye_calibration import calibrated_anchors, landmark_curves, shared_landmarker
 from facepuppet.capture.color.face import (
     FaceFrame,
     SkinModel,

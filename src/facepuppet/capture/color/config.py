@@ -141,7 +141,7 @@ class LandmarkConfig:
         Least likeness to a face of a frame placed by the landmark backend (-1: trust the backend).
     anchor_calibration : float
         At the first acquisition, move the eye anchors toward the eye blobs of a crop whose layout sits on the
-        eyes the landmark backend sees (:func:`~facepuppet.capture.color.eye_anchors.calibrated_anchors`) by
+        eyes the landmark backend sees (:func:`~facepuppet.capture.color.eye_calibration.calibrated_anchors`) by
         this fraction of the way (0: never). One frame's evidence is weighed against the generic anchors.
     anchor_scale_limits : (float, float)
         Bounds of the calibration's scale change of the layout.

@@ -1,5 +1,4 @@
-"""The colour tracker's eye search, its eye anchors calibrated on the landmark backend's eyes, and that backend
-shared.
+"""The colour tracker's eye search.
 
 The colour tracker aligns its face frame on the eyes: the centres it finds (:func:`eye_opening_centres`: the
 height by mean shift of the darkness under the skin's luma, :func:`dark_centres`; the place along the eye the
@@ -8,9 +7,8 @@ profile's eye anchors, and the layout follows. A trained profile's anchors are l
 lands on the performer's own labelled frames, which calibrates its bias on that face out, so with it the tracker
 uses the mean shift alone; the opening's place is for the generic profile's average anchors. Where the height
 found sits relative to the eye itself depends on the performer (lashes, lid shadows, brows close above): the
-generic anchors may put the layout a little off. When the landmark backend (MediaPipe) is available, the tracker
-asks it once, at its first acquisition, where the eyes are, and moves its anchors so the layout's eye centres
-land on them (:func:`calibrated_anchors`).
+generic anchors may put the layout a little off: :mod:`.eye_calibration` moves them onto the landmark backend's
+eyes where that backend is available.
 
 Conventions: crop pixels of one face crop (x right, y down); an eye centre is the mean of the points along the
 eye's upper and lower lid curves, right eye first (as in the anchors).
@@ -18,25 +16,16 @@ eye's upper and lower lid curves, right eye first (as in the anchors).
 
 from __future__ import annotations
 
-import logging
-import os
-import threading
-
 import numba as nb
 import numpy as np
 
 from facepuppet._util.jit import INNER, KERNEL
-from facepuppet.capture.color.face import similarity_from_points
 from facepuppet.capture.color.lids import EYES
 from facepuppet.capture.curves import bezier_points
-from facepuppet.errors import FacepuppetError
 
 __all__ = ["EYE_STEPS", "EYE_LEAST", "EYE_TALL", "EYE_TALL_LEVEL", "OPENING", "OPENING_TABLE", "eye_centres",
            "darkness", "without_long_runs", "without_tall_runs", "dark_centres",
-           "eye_opening_centres", "eye_centres_of",
-           "calibrated_anchors", "shared_landmarker", "landmark_curves", "skin_reference"]
-
-log = logging.getLogger(__name__)
+           "eye_opening_centres", "eye_centres_of", "skin_reference"]
 
 # Tuning constants of the eye search (eye_centres)
 EYE_STEPS = 3         # steps       mean-shift steps of the search from the anchors
@@ -71,12 +60,6 @@ OPENING = {
              "which the column is left out (the background beside a turned head; an eye's opening is shorter)"),
 }
 
-#: Landmark backends (image mode) by model path and options, made on first need and kept for the process:
-#: loading the model costs far more than a tracker's whole acquisition. None: not available.
-_SHARED: dict = {}
-_LOCK = threading.Lock()
-
-
 def eye_centres_of(curves: np.ndarray, samples: int = 16) -> np.ndarray:
     """Eye centres (2, 2), right eye first: the mean of ``samples`` points along each eye's two lid curves.
 
@@ -84,50 +67,6 @@ def eye_centres_of(curves: np.ndarray, samples: int = 16) -> np.ndarray:
     """
     return np.array([np.concatenate([bezier_points(curves[i], samples) for i in lids]).mean(axis=0)
                      for lids in EYES])
-
-
-def calibrated_anchors(anchors: np.ndarray, found: np.ndarray, unit: float, *,
-                       scale_limits: tuple[float, float] = (0.85, 1.15), noise_floor: float = 0.03,
-                       max_move: float = 0.25, gain: float = 1.0) -> np.ndarray | None:
-    """The anchors moved onto the eye blobs found in a crop whose layout sits on the eyes, or None when the
-    evidence is not clear.
-
-    In a face crop placed so that the layout's eye centres lie on the eyes the landmark backend sees, the
-    eye blobs' centres ``found`` are where the anchors belong: the tracker's alignment of the blobs on the
-    anchors then puts the layout on the eyes. The other anchors follow the similarity taking the old eye
-    anchors onto the new ones; its scale is kept within ``scale_limits``.
-
-    Parameters
-    ----------
-    anchors : (N, 2) float
-        The tracker's anchors in crop pixels (the eyes first, right eye first).
-    found : (2, 2) float
-        The eye blobs' centres in crop pixels, right eye first.
-    unit : float
-        Crop pixels per face unit.
-    noise_floor : float
-        Face units: when no eye anchor would move farther, the anchors stay (None).
-    max_move : float
-        Face units: when an eye anchor would move farther, the blob found is not that eye (None).
-
-    Returns
-    -------
-    (N, 2) float or None
-    """
-    anchors = np.asarray(anchors, dtype=float)
-    found = np.asarray(found, dtype=float)
-    if not np.isfinite(found).all():
-        return None
-    move = np.hypot(*(found - anchors[:2]).T).max()
-    if move < noise_floor * unit or move > max_move * unit:
-        return None
-    T = similarity_from_points(anchors[:2], found)
-    scale = float(np.hypot(*T[:, 0]))
-    kept = float(np.clip(scale, *scale_limits))
-    mid = found.mean(axis=0)
-    T[:, :2] *= kept / scale
-    T[:, 2] = mid - T[:, :2] @ anchors[:2].mean(axis=0)
-    return anchors + gain * (anchors @ T[:, :2].T + T[:, 2] - anchors)
 
 
 _OPENING_ORDER = ("chroma", "luma", "tail", "least", "full", "outset", "steps", "above", "below", "local", "lift",
@@ -141,30 +80,6 @@ def _opening_table() -> np.ndarray:
 
 
 OPENING_TABLE = _opening_table()
-
-
-def shared_landmarker(model_path: str | os.PathLike | None, config=None):
-    """The process's landmark backend (a MediaPipeTracker in image mode) for this model and options, or None
-    when mediapipe or the model is missing. Made on first call; never closed by its users (at exit)."""
-    key = (str(model_path) if model_path is not None else os.environ.get("FACEPUPPET_FACE_LANDMARKER", ""), config)
-    with _LOCK:
-        if key not in _SHARED:
-            try:
-                from facepuppet.capture.landmarks import MediaPipeTracker
-
-                _SHARED[key] = MediaPipeTracker(model_path, running_mode="image", config=config)
-            except (FacepuppetError, ImportError, OSError) as e:
-                log.debug("no landmark backend: %s", e)
-                _SHARED[key] = None
-        return _SHARED[key]
-
-
-def landmark_curves(landmarker, rgb: np.ndarray) -> np.ndarray | None:
-    """The landmark backend's curves (C, 4, 2) in image pixels on one image, or None without a face."""
-    with _LOCK:
-        landmarker.reset()                  # shared: the last user's face says nothing about this image
-        found = landmarker.track(rgb, 0)
-    return found.curves if found.valid else None
 
 
 @nb.njit(**KERNEL)
