@@ -56,8 +56,6 @@ OPENING = {
     "dark_agree": (0.08, "face units", "farthest the darkness's place may lie from C's, each way, to be taken"),
     "dark_level": (0.5, "darkness", "darkness from which a pixel belongs to a dark run (the runs' test)"),
     "dark_wide": (0.5, "face units", "longest horizontal dark run the eye's darkness keeps (wider: a rim, brows)"),
-    "tall": (0.3, "face units", "run of pixels of the opening's colour down a column, through the window, from "
-             "which the column is left out (the background beside a turned head; an eye's opening is shorter)"),
 }
 
 def eye_centres_of(curves: np.ndarray, samples: int = 16) -> np.ndarray:
@@ -71,7 +69,7 @@ def eye_centres_of(curves: np.ndarray, samples: int = 16) -> np.ndarray:
 
 _OPENING_ORDER = ("chroma", "luma", "tail", "least", "full", "outset", "steps", "above", "below", "local", "lift",
                   "half_width", "wider", "agree", "dark_low", "dark_high", "dark_above", "dark_agree", "dark_level",
-                  "dark_wide", "tall")
+                  "dark_wide")
 
 
 def _opening_table() -> np.ndarray:
@@ -284,9 +282,6 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
     feature intensity. In a window ``half_width`` face units either side of the expected centre, from
     ``above`` over to ``below`` under the height found, the extent runs between the columns that leave out
     ``tail`` of the opening's pixels at either end; the window is re-centred on its midpoint ``steps`` times.
-    A column whose pixels of the opening's chroma and luma run on for ``tall`` or more through the window is
-    left out: an eye's white lies between its lids, a light colourless wall beside the face (a turned head's
-    far eye) runs on above and below.
     The two eyes are the same size: an opening wider than ``wider`` times the other's has taken in something
     beyond its outer corner (pale makeup or skin, the background by a turned head), and its outer end is cut
     back to that width. The centre is the extent's midpoint moved inward by ``outset`` face units. An eye
@@ -332,11 +327,9 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
     least = table[3] * unit * unit
     r_box = max(int(np.round(table[9] * unit)), 1)
     # Luma and its integral image (for the local means), and the chroma projected on the skin's, in the band
-    # of rows the two windows and their boxes cover, and ``tall`` further up and down (the runs' test).
-    tall = max(int(np.round(table[20] * unit)), 2)
-    box_top = max(int(np.round(min(out[0, 1], out[1, 1]) - table[7] * unit)) - r_box, 0)
-    box_bottom = min(int(np.round(max(out[0, 1], out[1, 1]) + table[8] * unit)) + 1 + r_box, h)
-    bt, bb = max(box_top - tall, 0), min(box_bottom + tall, h)
+    # of rows the two windows and their boxes cover.
+    bt = max(int(np.round(min(out[0, 1], out[1, 1]) - table[7] * unit)) - r_box, 0)
+    bb = min(int(np.round(max(out[0, 1], out[1, 1]) + table[8] * unit)) + 1 + r_box, h)
     # Row i of the band's arrays is the crop's row bt + i (the integral image's row i + 1 sums the band's rows
     # up to it).
     nb_rows = max(bb - bt, 0)
@@ -369,27 +362,11 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
             n = 0.0
             for x in range(max(x0, 0), min(x0 + 2 * half + 1, w)):
                 xa, xb = max(x - r_box, 0), min(x + r_box + 1, w)
-                # A column whose pixels of the opening's colour run on for ``tall`` through the window is the
-                # background or a wall beside the face (a turned head's far eye), not an eye between its lids.
-                run = start = 0
-                for y in range(max(y0 - tall, bt), min(y1 + tall, bb)):
-                    if proj[y - bt, x] >= chroma_max or luma[y - bt, x] <= luma_min:
-                        if y >= y1:
-                            break
-                        run = 0
-                    else:
-                        if run == 0:
-                            start = y
-                        run += 1
-                        if run >= tall and y >= y0 and start < y1:
-                            break
-                if run >= tall and start < y1 and start + run > y0:
-                    continue
                 for y in range(y0, y1):
                     v = luma[y - bt, x]
                     if proj[y - bt, x] >= chroma_max or v <= luma_min:
                         continue
-                    ya, yb = max(y - r_box, box_top), min(y + r_box + 1, box_bottom)
+                    ya, yb = max(y - r_box, bt), min(y + r_box + 1, bb)
                     ia, ib = ya - bt, yb - bt
                     local = (integral[ib, xb] - integral[ia, xb] - integral[ib, xa] + integral[ia, xa]) / (
                         (yb - ya) * (xb - xa))
