@@ -26,6 +26,9 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from eval_head_pose import track  # noqa: E402
+
 BANDS = ((0, 10), (10, 20), (20, 30), (30, 90))   # degrees of |yaw|
 
 
@@ -42,27 +45,6 @@ def performance(yaw_deg: float, pitch_deg: float, seconds: float):
     motion[:, 1] = ease * np.radians(pitch_deg) * np.sin(2 * np.pi * 0.17 * t + 1.0)
     frames, curves = render_performer(Script(script.weights, motion, 30.0), size=(480, 480))
     return frames, curves, motion[:, :3]
-
-
-def track(backend: str, options: dict, frames: np.ndarray):
-    """(valid (F,), curves (F, C, 4, 2), (yaw, pitch, roll) (F, 3) radians) of one backend."""
-    from facepuppet.capture.pose import FRONTAL_ROTATION
-    from facepuppet.capture.tracking import make_tracker
-
-    tracker = make_tracker(backend, **options)
-    valid, curves, rots = [], [], []
-    try:
-        for i, rgb in enumerate(frames):
-            f = tracker.track(rgb, int(round(i * 1000.0 / 30.0)))
-            valid.append(bool(f.valid) and np.isfinite(f.rotation).all())
-            curves.append(f.curves)
-            rots.append(f.rotation)
-    finally:
-        tracker.close()
-    m = FRONTAL_ROTATION @ np.array(rots)           # Ry(yaw) Rx(pitch) Rz(roll), as HeadPose.angles
-    angles = np.stack([np.arctan2(m[:, 0, 2], m[:, 2, 2]), np.arcsin(np.clip(-m[:, 1, 2], -1, 1)),
-                       np.arctan2(m[:, 1, 0], m[:, 1, 1])], axis=1)
-    return np.array(valid), np.array(curves), angles
 
 
 def eye_distance(curves: np.ndarray) -> np.ndarray:
@@ -87,7 +69,7 @@ def report(name: str, valid, curves, angles, truth_curves, truth_angles) -> None
     for k, angle in enumerate(("yaw", "pitch", "roll")):
         a, b = np.degrees(angles[valid, k]), np.degrees(truth_angles[valid, k])
         if b.std() < 1e-6:
-            print(f"  {angle:5s}: the head does not turn so (MAE {np.abs(a - b).mean():.2f})")
+            print(f"  {angle:5s}: not turned in this performance (MAE {np.abs(a - b).mean():.2f})")
             continue
         r = float(np.corrcoef(a, b)[0, 1]) if a.std() > 1e-9 else float("nan")
         slope = float(np.polyfit(b, a, 1)[0])
@@ -110,11 +92,13 @@ def main(argv: list[str] | None = None) -> int:
         ROOT.parent / "shared" / "assets" / "models" / "face_landmarker.task")
     frames, truth_curves, truth_angles = performance(args.yaw, args.pitch, args.seconds)
     print(f"the digital performer, {len(frames)} frames, yaw up to {args.yaw:g} and pitch up to {args.pitch:g} deg")
-    report("colour tracker, built-in profile", *track("color", {}, frames), truth_curves, truth_angles)
-    if Path(model).is_file():
-        report("MediaPipe backend", *track("mediapipe", {"model_path": model}, frames), truth_curves, truth_angles)
-    else:
-        print(f"MediaPipe backend: skipped (no model at {model})")
+    for name, backend, options in (("colour tracker, built-in profile", "color", {}),
+                                   ("MediaPipe backend", "mediapipe", {"model_path": model})):
+        if backend == "mediapipe" and not Path(model).is_file():
+            print(f"MediaPipe backend: skipped (no model at {model})")
+            continue
+        valid, curves, _, angles = track(backend, options, list(frames), 30.0)
+        report(name, valid, curves, angles, truth_curves, truth_angles)
     return 0
 
 
