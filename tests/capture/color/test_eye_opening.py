@@ -18,18 +18,19 @@ UNIT = 48.0
 WINDOW = (14, 7)
 
 
-def _face(eyes, *, iris_dx=0.0, wing=0, pale=None, closed=False, rng=None):
+def _face(eyes, *, iris_dx=0.0, wing=0, pale=None, closed=False, rng=None, open_half=4.0):
     """A crop (100, 120, 3) of flat skin with two eyes (centre x, y, half width) and the matching contrast C:
     each eye an almond opening (white) between a dark lash line above and a fainter lower lid, a dark iris
     ``iris_dx`` pixels off the centre, an eyeliner ``wing`` pixels long beyond the outer corner, and, for the
-    eye ``pale``, a pale grey patch beyond its outer corner. Closed eyes show only the lash line."""
+    eye ``pale``, a pale grey patch beyond its outer corner; the opening ``2 open_half`` pixels tall in its
+    middle. Closed eyes show only the lash line."""
     crop = np.empty((100, 120, 3), np.float32)
     crop[:] = SKIN
     C = np.zeros((100, 120), np.float32)
     for k, (cx, cy, hw) in enumerate(eyes):
         out = -1 if k == 0 else 1                              # the right eye is on the image's left
         xs = np.arange(int(cx - hw), int(cx + hw) + 1)
-        half_h = 4.0 * np.sqrt(np.clip(1 - ((xs - cx) / hw) ** 2, 0, 1))
+        half_h = open_half * np.sqrt(np.clip(1 - ((xs - cx) / hw) ** 2, 0, 1))
         for x, hh in zip(xs, half_h, strict=True):
             top, bottom = int(round(cy - hh)), int(round(cy + hh))
             if not closed and bottom > top:
@@ -123,3 +124,54 @@ def test_closed_eyes_keep_the_mean_shift(rng):
     np.testing.assert_allclose(found, mean_shift, atol=1e-9)
     # No feature intensity at all: not found, as the mean shift.
     assert not _search(crop, np.zeros_like(C))[0]
+
+
+def _wall(crop, x0, x1, rng):
+    """``crop`` with a light grey wall (colourless and light, as an eye's white) filling columns x0:x1 from top
+    to bottom."""
+    out = crop.copy()
+    out[:, x0:x1] = np.clip(rng.normal((196, 196, 200), 2.0, out[:, x0:x1].shape) + 0.5, 0, 255).astype(np.uint8)
+    return out
+
+
+def test_the_wall_beside_a_turned_heads_far_eye_is_not_its_opening(rng):
+    # A head turned to its left: the far (left) eye a little narrower and 4 px from the face's edge, beyond which
+    # the wall fills the crop. Its columns run on under the eye window; under an eye's white lies the cheek.
+    eyes = ((38.0, 40.0, 12.0), (82.0, 40.0, 10.5))
+    crop, C = _face(eyes, rng=rng)
+    anchors = np.array([[38.0, 38.0], [86.0, 38.0]])          # the layout's far eye: a little outward of it
+    for image in (crop, _wall(crop, 97, 120, rng)):
+        ok, found = _search(image, C, anchors)
+        assert ok
+        np.testing.assert_allclose(found[:, 0], [38.0, 82.0], atol=0.8)
+    # Mirrored: the head turned to its right, the far eye the right one (the image's left).
+    crop, C = _face(((38.0, 40.0, 10.5), (82.0, 40.0, 12.0)), rng=rng)
+    anchors = np.array([[34.0, 38.0], [82.0, 38.0]])
+    ok, found = _search(_wall(crop, 0, 24, rng), C, anchors)
+    assert ok
+    np.testing.assert_allclose(found[:, 0], [38.0, 82.0], atol=0.8)
+
+
+def test_a_pale_patch_under_the_inner_corner_keeps_the_eyes_columns(rng):
+    # A lit nose bridge or cheek under the eye's inner corner, as pale as the wall and running as far down: the
+    # background never lies inward of an eye, so the white above it still counts.
+    crop, C = _face(EYES, rng=rng)
+    lit = crop.copy()
+    for x0, x1 in ((42, 50), (70, 78)):                      # under each eye's inner end
+        lit[43:80, x0:x1] = np.clip(rng.normal((222, 220, 218), 2.0, (37, x1 - x0, 3)) + 0.5, 0, 255)
+    ok, found = _search(crop, C)
+    ok_lit, found_lit = _search(lit, C)
+    assert ok and ok_lit
+    # Its top rows lie in the eye window and count as opening (as a pale lower lid would): the place may move a
+    # little inward, never outward (with those columns left out it moves ~3 px outward).
+    moved = (found_lit[:, 0] - found[:, 0]) * [-1.0, 1.0]         # outward positive
+    assert np.all(moved <= 0.3) and np.all(moved >= -1.0), moved
+
+
+def test_an_eye_opened_wide_is_still_read_by_its_opening(rng):
+    # Opened 0.25 face units (12 px) tall, its white runs down a column far less than a wall's: the opening's
+    # extent, not the mean shift drawn to the iris looking aside, places it.
+    crop, C = _face(EYES, open_half=6.0, iris_dx=5.0, rng=rng)
+    ok, found = _search(crop, C)
+    assert ok
+    np.testing.assert_allclose(found[:, 0], [36.0, 84.0], atol=0.6)

@@ -56,6 +56,8 @@ OPENING = {
     "dark_agree": (0.08, "face units", "farthest the darkness's place may lie from C's, each way, to be taken"),
     "dark_level": (0.5, "darkness", "darkness from which a pixel belongs to a dark run (the runs' test)"),
     "dark_wide": (0.5, "face units", "longest horizontal dark run the eye's darkness keeps (wider: a rim, brows)"),
+    "tall": (0.3, "face units", "run of pixels of the opening's colour down a column from the window's bottom row "
+             "from which the column is left out (a wall beside a turned head runs on; the cheek lies under an eye)"),
 }
 
 def eye_centres_of(curves: np.ndarray, samples: int = 16) -> np.ndarray:
@@ -69,7 +71,7 @@ def eye_centres_of(curves: np.ndarray, samples: int = 16) -> np.ndarray:
 
 _OPENING_ORDER = ("chroma", "luma", "tail", "least", "full", "outset", "steps", "above", "below", "local", "lift",
                   "half_width", "wider", "agree", "dark_low", "dark_high", "dark_above", "dark_agree", "dark_level",
-                  "dark_wide")
+                  "dark_wide", "tall")
 
 
 def _opening_table() -> np.ndarray:
@@ -282,6 +284,9 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
     feature intensity. In a window ``half_width`` face units either side of the expected centre, from
     ``above`` over to ``below`` under the height found, the extent runs between the columns that leave out
     ``tail`` of the opening's pixels at either end; the window is re-centred on its midpoint ``steps`` times.
+    A column outward of the expected centre whose pixels of the opening's chroma and luma run on for ``tall``
+    down from the window's bottom row is left out: a light wall beside a turned head's far eye runs on, under an
+    eye's white lies the cheek.
     The two eyes are the same size: an opening wider than ``wider`` times the other's has taken in something
     beyond its outer corner (pale makeup or skin, the background by a turned head), and its outer end is cut
     back to that width. The centre is the extent's midpoint moved inward by ``outset`` face units. An eye
@@ -327,9 +332,11 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
     least = table[3] * unit * unit
     r_box = max(int(np.round(table[9] * unit)), 1)
     # Luma and its integral image (for the local means), and the chroma projected on the skin's, in the band
-    # of rows the two windows and their boxes cover.
+    # of rows the two windows and their boxes cover, and ``tall`` further down (the runs' test).
+    tall = max(int(np.round(table[20] * unit)), 2)
     bt = max(int(np.round(min(out[0, 1], out[1, 1]) - table[7] * unit)) - r_box, 0)
-    bb = min(int(np.round(max(out[0, 1], out[1, 1]) + table[8] * unit)) + 1 + r_box, h)
+    box_bottom = min(int(np.round(max(out[0, 1], out[1, 1]) + table[8] * unit)) + 1 + r_box, h)
+    bb = min(box_bottom + tall, h)
     # Row i of the band's arrays is the crop's row bt + i (the integral image's row i + 1 sums the band's rows
     # up to it).
     nb_rows = max(bb - bt, 0)
@@ -362,11 +369,23 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
             n = 0.0
             for x in range(max(x0, 0), min(x0 + 2 * half + 1, w)):
                 xa, xb = max(x - r_box, 0), min(x + r_box + 1, w)
+                # A column outward of the eye's expected centre whose pixels of the opening's colour run on for
+                # ``tall`` down from the window's bottom row is a light wall beside the face (a turned head's far
+                # eye), not an eye's white: under an eye (and under a lens's reflection) lies the cheek. Inward,
+                # under the inner corner, a lit nose or cheek may be as pale, and the background never lies there.
+                run = 0
+                outward = (x - anchors[k, 0]) * out_dir > 0.0
+                for y in range(y1 - 1, min(y1 - 1 + tall, bb) if outward else y1 - 1):
+                    if proj[y - bt, x] >= chroma_max or luma[y - bt, x] <= luma_min:
+                        break
+                    run += 1
+                if run >= tall:
+                    continue
                 for y in range(y0, y1):
                     v = luma[y - bt, x]
                     if proj[y - bt, x] >= chroma_max or v <= luma_min:
                         continue
-                    ya, yb = max(y - r_box, bt), min(y + r_box + 1, bb)
+                    ya, yb = max(y - r_box, bt), min(y + r_box + 1, box_bottom)
                     ia, ib = ya - bt, yb - bt
                     local = (integral[ib, xb] - integral[ia, xb] - integral[ib, xa] + integral[ia, xa]) / (
                         (yb - ya) * (xb - xa))
