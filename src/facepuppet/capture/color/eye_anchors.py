@@ -373,14 +373,14 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
                 # ``tall`` down from the window's bottom row is a light wall beside the face (a turned head's far
                 # eye), not an eye's white: under an eye (and under a lens's reflection) lies the cheek. Inward,
                 # under the inner corner, a lit nose or cheek may be as pale, and the background never lies there.
-                run = 0
-                outward = (x - anchors[k, 0]) * out_dir > 0.0
-                for y in range(y1 - 1, min(y1 - 1 + tall, bb) if outward else y1 - 1):
-                    if proj[y - bt, x] >= chroma_max or luma[y - bt, x] <= luma_min:
-                        break
-                    run += 1
-                if run >= tall:
-                    continue
+                if (x - anchors[k, 0]) * out_dir > 0.0:
+                    run = 0
+                    for y in range(y1 - 1, min(y1 - 1 + tall, bb)):
+                        if proj[y - bt, x] >= chroma_max or luma[y - bt, x] <= luma_min:
+                            break
+                        run += 1
+                    if run >= tall:
+                        continue
                 for y in range(y0, y1):
                     v = luma[y - bt, x]
                     if proj[y - bt, x] >= chroma_max or v <= luma_min:
