@@ -165,3 +165,47 @@ def test_the_follower_refuses_an_alignment_of_the_wrong_size_and_keeps_where_it_
     assert follower.correlation is not None                                   # the alignment itself succeeded
     kept = follower.aligned()
     assert np.allclose(kept.origin, start.origin, atol=1e-6) and abs(kept.unit - start.unit) < 1e-6
+
+
+def test_a_face_stretched_one_way_keeps_the_size_of_the_axis_that_changed_least():
+    """A turn stretches one axis of the alignment, a nod shortens the other, a move closer grows both: the face's
+    size is what the axis that changed least from the size the last alignment gave it says."""
+    import cv2
+
+    from facepuppet.capture.color.face import CROP_EXTENT
+    from facepuppet.capture.color.follow import Follower
+
+    px = 40.0
+    size = (int(round((CROP_EXTENT[2] - CROP_EXTENT[0]) * px)), int(round((CROP_EXTENT[3] - CROP_EXTENT[1]) * px)))
+    scene = _textured_scene()
+    start = FaceFrame(np.array([320.0, 220.0]), np.array([60.0, 0.0]))
+
+    def stretched(sx, sy):
+        """The scene stretched about the face's origin by sx across and sy down."""
+        M = np.array([[sx, 0.0, 320.0 * (1 - sx)], [0.0, sy, 220.0 * (1 - sy)]])
+        return cv2.warpAffine(scene, M, (640, 480), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
+
+    # (stretch across, stretch down, the face grown alike in a frame followed before, the size expected), sizes
+    # as ratios of the reference's
+    dw, dh = abs(np.log(1.08)), abs(np.log(0.96))
+    cases = ((1.2, 1.0, None, 1.0), (1.0, 0.9, None, 1.0), (1.0, 1.15, None, 1.0), (1.1, 1.1, None, 1.1),
+             (1.15, 1.05, 1.05, 1.05), (1.08, 0.96, None, np.exp((dh * np.log(1.08) + dw * np.log(0.96)) / (dw + dh))))
+    sizes = (0.8 * start.unit, 1.4 * start.unit)
+    for sx, sy, grown, expected in cases:
+        follower = Follower(size, px, FollowConfig(iterations=50))
+        follower.start(scene, start)
+        before = start
+        if grown is not None:
+            before = follower.follow(stretched(grown, grown), start.crop_matrix(px), sizes)
+            assert before is not None and abs(before.unit / start.unit - grown) < 0.01
+        moved = follower.follow(stretched(sx, sy), before.crop_matrix(px), sizes)
+        assert moved is not None, (sx, sy)
+        assert abs(moved.unit / start.unit - expected) < 0.01, (sx, sy, grown, moved.unit / start.unit)
+        assert abs(moved.roll) < 0.01 and np.allclose(moved.origin, start.origin, atol=1.0)
+        # where the face was last aligned is read the same way
+        assert abs(follower.aligned().unit - moved.unit) < 1e-6
+    # sized by the horizontal axis alone (a trained profile's)
+    follower = Follower(size, px, FollowConfig(iterations=50), both_axes=False)
+    follower.start(scene, start)
+    moved = follower.follow(stretched(1.2, 1.0), start.crop_matrix(px), sizes)
+    assert moved is not None and abs(moved.unit / start.unit - 1.2) < 0.01

@@ -4,6 +4,7 @@ import numpy as np
 
 from facepuppet.capture.color.nose_turn import (
     NOSE_DEPTH,
+    PEAK_MARGIN,
     NoseTurn,
     face_to_image,
     nose_axis,
@@ -41,6 +42,32 @@ def test_nose_axis_is_found_where_the_drawn_nose_is_symmetric(rng):
         found = nose_axis(_nose(x, rng), _frame_map())
         assert found is not None and found[1] > 0.5
         assert abs(found[0] - x) < 0.01, (x, found)
+
+
+def _stripes(period=0.16, size=(400, 300)):
+    """Vertical dark stripes every ``period`` face units across the nose region: mirror-symmetric about each
+    stripe and each gap between two, so the mirror match has several peaks of the same height."""
+    w, h = size
+    xx = np.mgrid[0:h, 0:w][1].astype(float)
+    u = (xx - ORIGIN[0]) / UNIT
+    grey = np.clip(150.0 - 60.0 * np.cos(2 * np.pi * u / period), 0, 255).astype(np.uint8)
+    return np.dstack([grey, grey, grey])
+
+
+def test_a_nose_alone_leads_and_a_match_of_several_peaks_gives_no_reading(rng):
+    found = nose_axis(_nose(0.05, rng), _frame_map())
+    assert found is not None and found[2] > PEAK_MARGIN
+    found = nose_axis(_stripes(), _frame_map())
+    assert found is not None and found[1] > 0.5 and found[2] < PEAK_MARGIN
+    turn = NoseTurn(frames=31, every=1)
+    M = _frame_map()
+    for _ in range(10):
+        turn(_nose(0.0), M)
+    d = 0.06
+    got = turn(_nose(d), M)
+    assert abs(got - np.arcsin(d / NOSE_DEPTH)) < 0.015, got
+    assert turn(_stripes(), M) == got                 # ambiguous: the last reading is held
+    assert abs(turn(_nose(-d), M) + np.arcsin(d / NOSE_DEPTH)) < 0.015
 
 
 def test_face_to_image_round_trips_the_crop():

@@ -30,6 +30,8 @@ __all__ = [
     "then_affine",
     "box_in_crop",
     "turned_and_shifted",
+    "far_correction",
+    "FAR_TURN",
 ]
 
 # Tuning constants of the skin search (find_face)
@@ -46,6 +48,9 @@ EYE_SPAN = (0.25, 0.65)        # fraction        of the region's width two eye h
 EYE_TILT = 0.35                # ratio           most vertical offset of two eye holes, of their distance
 HOLE_SIZE_WEIGHT = 0.3         # score per log   penalty on two holes' size ratio
 HOLE_LOW_WEIGHT = 0.5          # score           bonus of lower pairs (brows lie above the eyes)
+
+# Tuning constants of the eye correction (far_correction)
+FAR_TURN = np.radians(12.0)    # radians         largest turn of the eyes against the aligned face
 
 #: Extent of the face crop in face units: x0, y0, x1, y1 (brows above, chin below).
 CROP_EXTENT = (-1.3, -0.85, 1.3, 1.95)
@@ -357,3 +362,12 @@ def turned_and_shifted(anchors: np.ndarray, correction: np.ndarray) -> np.ndarra
     # Row vectors: p @ [[a, b], [-b, a]] is the similarity's linear part; the midpoint goes where it takes it.
     mx2, my2 = a * mx - b * my + tx, b * mx + a * my + ty
     return np.array([[c * (x - mx) - d * (y - my) + mx2, d * (x - mx) + c * (y - my) + my2] for x, y in pts])
+
+
+def far_correction(correction: np.ndarray) -> bool:
+    """Whether the eye correction ``correction`` (4,) (as :func:`turned_and_shifted`) turns the eyes by more than
+    :data:`FAR_TURN` against where the alignment put them: more than eyes turn against a face's texture (the
+    alignment follows the head's roll), an eye taken on a brow or the hair and held there by searching where it
+    was."""
+    a, b = float(correction[0]), float(correction[1])
+    return abs(float(np.arctan2(b, a))) > FAR_TURN

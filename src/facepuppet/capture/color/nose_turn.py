@@ -10,7 +10,9 @@ trained profile reads the turn with its learnt model (:mod:`.head_turn`). Withou
   (:data:`NOSE_DEPTH`). The axis is found in :data:`NOSE_REGION` of the frame (resampled upright in the face
   frame, :data:`SAMPLES_PER_UNIT`) as the vertical line about which the region's detail matches its own mirror
   image best (normalised correlation over :data:`MIRROR_HALF` either side, sub-sample by a parabola through
-  the best three), within :data:`SEARCH` of the midpoint. The detail is the grey lightly blurred less its
+  the best three), within :data:`SEARCH` of the midpoint. Where the match has a second peak nearly as high
+  (within :data:`PEAK_MARGIN`; under a turn, the line between the nose's far side and the cheek can mirror as
+  well as the nose), the frame gives no reading: the last one is held. The detail is the grey lightly blurred less its
   blur over the wider of :data:`DETAIL_SIGMA`: the nostrils, the tip's highlight, the sides' edges, not the
   light's slope across the face.
 - **The neutral.** The light and the nose are not quite symmetric, and where the eye centres are found on a
@@ -38,8 +40,8 @@ import numpy as np
 from facepuppet._util.jit import KERNEL
 
 __all__ = ["NOSE_REGION", "SAMPLES_PER_UNIT", "DETAIL_SIGMA", "MIRROR_HALF", "SEARCH", "NOSE_DEPTH",
-           "NEUTRAL_FRAMES", "MEASURE_EVERY", "MIN_MATCH", "LOOK_SHARE", "nose_axis", "mirror_scores",
-           "face_to_image", "NoseTurn"]
+           "NEUTRAL_FRAMES", "PEAK_MARGIN", "PEAK_APART", "MEASURE_EVERY", "MIN_MATCH", "LOOK_SHARE", "nose_axis",
+           "mirror_scores", "face_to_image", "NoseTurn"]
 
 # Constants                      unit                what it is
 NOSE_REGION = (-0.6, 0.35, 0.6, 0.88)  # face units  (x0, y0, x1, y1): the nose from its middle to its base
@@ -47,6 +49,8 @@ SAMPLES_PER_UNIT = 50.0          # samples / unit    grey samples of the region 
 DETAIL_SIGMA = (0.015, 0.08)     # face units        Gaussian blurs: the noise's, and the light's slope's
 MIRROR_HALF = 0.3                # face units        width compared either side of a candidate axis
 SEARCH = 0.2                     # face units        largest distance of the axis from the eyes' midpoint
+PEAK_MARGIN = 0.1                # correlation       least lead of the best peak of the match over any other
+PEAK_APART = 0.05                # face units        ... of those this far from it or farther
 #: Face units the nose's axis moves against the eye centres per unit of sin(yaw): the depth of the nose in
 #: front of the eye centres over their distance, at the scale the head pose of the landmark backend (a PnP on
 #: the generic face) gives the same turn.
@@ -83,7 +87,7 @@ def face_to_image(A: np.ndarray, S_px: np.ndarray, px: float, origin: tuple[floa
     return np.hstack([Ainv[:, :2] @ L, (Ainv[:, :2] @ t + Ainv[:, 2])[:, None]])
 
 
-def nose_axis(rgb: np.ndarray, M: np.ndarray) -> tuple[float, float] | None:
+def nose_axis(rgb: np.ndarray, M: np.ndarray) -> tuple[float, float, float] | None:
     """The nose's axis of mirror symmetry in :data:`NOSE_REGION` (the module notes).
 
     Parameters
@@ -95,9 +99,10 @@ def nose_axis(rgb: np.ndarray, M: np.ndarray) -> tuple[float, float] | None:
 
     Returns
     -------
-    (float, float) or None
-        The axis's x, face units from the eyes' midpoint, and its mirror match (normalised correlation); None
-        when the region has no detail.
+    (float, float, float) or None
+        The axis's x, face units from the eyes' midpoint; its mirror match (normalised correlation); and the
+        match's lead over that of the best other peak (local maximum, the search's ends included) at least
+        :data:`PEAK_APART` away (infinite when there is none). None when the region has no detail.
     """
     x0, y0, x1, y1 = NOSE_REGION
     n = SAMPLES_PER_UNIT
@@ -121,12 +126,15 @@ def nose_axis(rgb: np.ndarray, M: np.ndarray) -> tuple[float, float] | None:
     if score.size == 0:
         return None
     j = int(np.argmax(score))
+    left, right = np.r_[-np.inf, score[:-1]], np.r_[score[1:], -np.inf]
+    others = (score >= left) & (score >= right) & (np.abs(cs - cs[j]) >= PEAK_APART * n)
+    lead = float(score[j] - score[others].max()) if others.any() else np.inf
     off = 0.0
     if 0 < j < len(score) - 1:
         curv = score[j - 1] - 2.0 * score[j] + score[j + 1]
         if curv < 0:
             off = 0.5 * float(score[j - 1] - score[j + 1]) / float(curv)
-    return x0 + (float(cs[j]) + off + 0.5) / n, float(score[j])
+    return x0 + (float(cs[j]) + off + 0.5) / n, float(score[j]), lead
 
 
 @nb.njit(**KERNEL)
@@ -192,12 +200,13 @@ class NoseTurn:
     def __call__(self, rgb: np.ndarray, M: np.ndarray) -> float:
         """The yaw (radians) of the frame ``rgb`` (H, W, 3) uint8 whose face frame is ``M`` (face units -> image
         pixels, :func:`face_to_image`); the last one read (at first zero) when the nose's axis is not found
-        (no detail, or a mirror match under :data:`MIN_MATCH`) or the call is not one that measures."""
+        (no detail, a mirror match under :data:`MIN_MATCH` or a second peak within :data:`PEAK_MARGIN` of it)
+        or the call is not one that measures."""
         if not self.due:
             return self.skip()
         self._calls += 1
         found = nose_axis(rgb, M)
-        if found is None or found[1] < MIN_MATCH:
+        if found is None or found[1] < MIN_MATCH or found[2] < PEAK_MARGIN:
             return self._last
         x = found[0]
         n, ring = len(self._seen), self._sorted

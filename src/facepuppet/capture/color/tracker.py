@@ -38,6 +38,7 @@ from facepuppet.capture.color.face import (
     FaceFrame,
     SkinModel,
     box_in_crop,
+    far_correction,
     same_frame,
     similarity_of_pairs,
     turned_and_shifted,
@@ -161,7 +162,7 @@ class ColorTracker:
         self._follow = FollowState(check_in=config.follow.check_every)
         #: Fresh searches for the face (acquisitions) since the tracker was made or reset.
         self.searches = 0
-        self._follower = Follower(self._size, px, config.follow)
+        self._follower = Follower(self._size, px, config.follow, both_axes=self._eye_opening)
         #: (face crop, its crop matrix, the layout placed on it) of the last frame whose curves were measured:
         #: where the profile's shape models learn (:func:`~facepuppet.capture.color.train.train_profile`).
         self.seen: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
@@ -280,10 +281,9 @@ class ColorTracker:
         self._skin_ok(crop)
         self._boxes_now()
         self._outliner.warmup_lids(curves, crop)
-        self._smoother.curve(curves, 1 / 30)
-        self._smoother.curve(curves, 1 / 30)          # the first sample only starts the filter
-        self._features(curves, (w, h))
-        self._features(curves, (w, h))                 # from the previous frame's pose
+        for _ in range(2):      # the smoother's first sample only starts its filter; the second pose starts on one
+            self._smoother.curve(curves, 1 / 30)
+            self._features(curves, (w, h))
 
     def intensity(self, crop: np.ndarray, *, followed: bool = False) -> np.ndarray:
         """Eq. 1 and the contrast C on a face crop (H, W, 3) uint8 -> (H, W) float32 in [0, 1].
@@ -359,11 +359,13 @@ class ColorTracker:
         # The eyes' correction of the followed frame (a similarity in crop pixels, as a, b, tx, ty), smoothed
         # over frames: the alignment on the whole face is steady, the eye search noisier but unbiased. With the
         # generic profile the search starts where the last correction's turn and shift put the eyes (its size
-        # left to the alignment: an eye search pulled outward would grow it without end); a trained profile's
-        # anchors are where its search lands when started on them (:mod:`.eye_anchors`), so it starts there.
+        # left to the alignment: an eye search pulled outward would grow it without end), on the anchors if it
+        # is far from the alignment (:func:`.face.far_correction`); a trained profile's anchors are where its
+        # search lands when started on them (:mod:`.eye_anchors`), so it starts there.
         last_corr = correction if correction is not None else self._follow.correction
         smooth = follow and last_corr is not None
-        start = turned_and_shifted(place.anchors_px, last_corr) if smooth and self._eye_opening else None
+        held = smooth and self._eye_opening and not far_correction(last_corr)
+        start = turned_and_shifted(place.anchors_px, last_corr) if held else None
         eyes = self.eye_centres(self._intensity.eyes, start, dark=follow)
         corr = last_corr if smooth else np.array(NO_CORRECTION)
         if eyes is not None:
@@ -469,10 +471,8 @@ class ColorTracker:
         self.searches += 1
         self._smoother.reset()
         fol.pose = fol.turn_ms = None
-        self._place.mouth_offset = np.zeros(2)
-        fol.misses = 0
+        self._place.mouth_offset, fol.misses, fol.correction = np.zeros(2), 0, None
         self._follower.reset()
-        fol.correction = None
         best = self._acquirer.find(rgb, last)
         if best is None:
             return None
