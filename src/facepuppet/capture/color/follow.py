@@ -129,7 +129,7 @@ class Follower:
     both_axes : bool
         Size the face by what the alignment's axis that changed least says (:meth:`_height_share`), else by its
         horizontal axis alone: a trained profile reads the head's nod off the crop's look, which sizing by the
-        vertical axis would in part take out (its pitch on performer_a's held-out half, r 0.94 → 0.81).
+        vertical axis would in part take out.
     """
 
     def __init__(self, size: tuple[int, int], px: float, config: FollowConfig, both_axes: bool = True):
@@ -203,9 +203,9 @@ class Follower:
         its horizontal axis's length ``w`` changed from the size the last alignment gave the face, of how much
         both changed: ``dw / (dw + dh)``, ``dw = |log(w px / unit)|``, ``dh`` alike. A turn or a nod changes one
         axis of an affine fit of the frontal reference (a turned head stretches the horizontal one: the near
-        half of the face, seen more frontally, widens and holds most of the texture, +30 % at 23 degrees of yaw
-        on the digital performer with the vertical within 5 %; a nod shortens the vertical one), a move towards
-        the camera both alike: the face's size is what the axis that changed least says."""
+        half of the face, seen more frontally, widens and holds most of the texture; a nod shortens the
+        vertical one), a move towards the camera both alike: the face's size is what the axis that changed
+        least says."""
         if not self.both_axes:
             return 0.0
         dw = abs(np.log(float(np.hypot(G[0, 0], G[1, 0])) * self.px / self.unit))

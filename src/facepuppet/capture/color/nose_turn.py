@@ -12,9 +12,9 @@ trained profile reads the turn with its learnt model (:mod:`.head_turn`). Withou
   image best (normalised correlation over :data:`MIRROR_HALF` either side, sub-sample by a parabola through
   the best three), within :data:`SEARCH` of the midpoint. Where the match has a second peak nearly as high
   (within :data:`PEAK_MARGIN`; under a turn, the line between the nose's far side and the cheek can mirror as
-  well as the nose), the frame gives no reading: the last one is held. The detail is the grey lightly blurred less its
-  blur over the wider of :data:`DETAIL_SIGMA`: the nostrils, the tip's highlight, the sides' edges, not the
-  light's slope across the face.
+  well as the nose), the frame gives no reading: the last one is held. The detail is the grey lightly blurred
+  less its blur over the wider of :data:`DETAIL_SIGMA`: the nostrils, the tip's highlight, the sides' edges,
+  not the light's slope across the face.
 - **The neutral.** The light and the nose are not quite symmetric, and where the eye centres are found on a
   face differs between people: the neutral axis is the running median of the axes of the last
   :data:`NEUTRAL_FRAMES` measured frames (the performer faces the camera most of the time; nothing later is
