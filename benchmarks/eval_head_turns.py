@@ -62,8 +62,14 @@ def eye_distance(curves: np.ndarray) -> np.ndarray:
     return np.linalg.norm(left - right, axis=1)
 
 
+def curve_error(curves: np.ndarray, truth_curves: np.ndarray) -> np.ndarray:
+    """(F,) NME of each frame: the mean distance of the curves' control points from the true ones over the true
+    eye-centre distance."""
+    return np.linalg.norm(curves - truth_curves, axis=-1).mean(axis=(1, 2)) / eye_distance(truth_curves)
+
+
 def report(name: str, valid, curves, angles, truth_curves, truth_angles) -> None:
-    nme = np.linalg.norm(curves - truth_curves, axis=-1).mean(axis=(1, 2)) / eye_distance(truth_curves)
+    nme = curve_error(curves, truth_curves)
     yaw = np.degrees(np.abs(truth_angles[:, 0]))
     print(f"{name}: coverage {valid.mean():.3f}")
     for lo, hi in BANDS:
@@ -114,8 +120,8 @@ def main(argv: list[str] | None = None) -> int:
             valid, curves, _, angles = track(backend, options, list(frames), 30.0)
             runs[name].append((valid, curves, angles))
             if len(args.seeds) > 1:
-                nme = np.linalg.norm(curves - truth_curves, axis=-1).mean(axis=(1, 2)) / eye_distance(truth_curves)
-                print(f"  {name}: coverage {valid.mean():.3f}, NME {nme[valid].mean():.3f}")
+                nme = curve_error(curves, truth_curves)[valid].mean()
+                print(f"  {name}: coverage {valid.mean():.3f}, NME {nme:.3f}")
         del frames
     truth_curves = np.concatenate([c for c, _ in truth])
     truth_angles = np.concatenate([a for _, a in truth])
