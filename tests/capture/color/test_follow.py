@@ -129,6 +129,48 @@ def test_a_lost_face_is_remembered_for_a_time_then_forgotten():
     assert state.dropped is None and state.score_ref is None and state.lost_face(3000.0) is None
 
 
+def test_a_face_found_again_elsewhere_is_the_face_lost_only_once_it_has_passed_its_checks():
+    """A candidate taken beside the face and lost at once leaves the search where the face was lost before it; one
+    found about where the face was (behind a passing hand) is the face lost, lost when it was."""
+    from facepuppet.capture.color.follow import NEAR, OWN_CHECKS
+
+    state = FollowState(frame=_frame(), unit_ref=40.0, score_ref=0.5)
+    state.drop(1000.0)
+    first = state.lost_face(1100.0)
+    wrong = FaceFrame(np.array([260.0, 110.0]), np.array([30.0, 30.0]))     # turned 45 degrees, up and aside
+    state.frame, state.unit_ref, state.found_again = wrong, 55.0, OWN_CHECKS
+    state.found(first, 1100.0)
+    lost = state.lost_face(1200.0)                                          # lost again before its first check
+    assert lost.frame is first.frame and lost.unit == 40.0 and lost.ms == 200.0
+    state.drop(1200.0)
+    assert state.dropped is first.frame and state.unit_ref == 40.0 and state.lost_face(1500.0).ms == 500.0
+    # found again beside the face, lost long after the face was: the whole frame is searched
+    last = state.lost_face(1500.0)
+    state.frame, state.found_again = wrong, OWN_CHECKS
+    state.found(last, 1500.0)
+    assert state.lost_face(1000.0 + LOST_MEMORY + 1.0) is None
+    # found again about where the face was (moved less than NEAR), lost before its checks: it is the face lost
+    state = FollowState(frame=_frame(), unit_ref=40.0, score_ref=0.5)
+    state.drop(1000.0)
+    last = state.lost_face(1100.0)
+    c, s = np.cos(0.9 * NEAR[2]), np.sin(0.9 * NEAR[2])
+    near = FaceFrame(np.array([200.0 + 0.9 * NEAR[0] * 40.0, 150.0]), np.array([40.0 * c, 40.0 * s]))
+    state.frame, state.found_again = near, OWN_CHECKS
+    state.found(last, 1100.0)
+    assert state.lost_face(1200.0).frame is near and state.lost_face(1200.0).ms == 0.0
+    state.drop(1200.0)
+    assert state.dropped is near and state.lost_face(1300.0).ms == 100.0 and state.pending is not None
+    # kept through its checks: the face found again is the face now, wherever it is
+    last = state.lost_face(1300.0)
+    state.frame, state.found_again = wrong, OWN_CHECKS
+    state.found(last, 1300.0)
+    for _ in range(OWN_CHECKS):
+        assert state.still_like_a_face(0.5, CFG)
+    assert state.pending is None and state.lost_face(1400.0).frame is wrong
+    state.drop(1400.0)
+    assert state.dropped is wrong and state.lost_face(1500.0).ms == 100.0
+
+
 def _textured_scene(seed=3, shape=(480, 640)):
     """A smooth random texture (RGB uint8): the alignment has something to lock on everywhere."""
     import cv2

@@ -151,3 +151,39 @@ def test_a_hidden_face_is_not_found_again_on_a_smaller_face_beside_it(assets):
     # Measured: valid and on the face in every frame but those the hand hides (and the first after it).
     assert not wrong, wrong
     assert len([i for i in shown if i >= hidden.stop]) >= len(frames) - hidden.stop - 2, shown
+
+
+class _TurningEyes:
+    """A measurer whose eye search turns every frame it is given by ``step`` radians about its origin."""
+
+    def __init__(self, step):
+        from facepuppet.capture.color.config import ColorTrackerConfig
+        from facepuppet.capture.color.profile import default_profile
+
+        self.step, self.config, self.profile = step, ColorTrackerConfig(), default_profile()
+
+    def measure(self, rgb, frame, *, follow, gain, outline=True, correction=None):
+        c, s = np.cos(self.step), np.sin(self.step)
+        turned = FaceFrame(frame.origin.copy(), np.array([[c, -s], [s, c]]) @ frame.axis)
+        return Measurement(None, turned, True, 0.9, np.array([1.0, 0.0, 0.0, 0.0]), None)
+
+
+def test_a_candidate_the_eye_search_turns_far_is_a_face_only_in_a_window():
+    """An eye search that turns a candidate by more than REFINE_TURN has taken an eye with a brow, an ear or the
+    hair beside a turned head: the candidate is dropped, unless a cascade window's face holds it (a window of a
+    copy turned the other way holds an upright face); one turned less is kept, turned."""
+    from facepuppet.capture.color.acquire import REFINE_STEPS, REFINE_TURN, Acquirer
+    from facepuppet.capture.color.detect import BOX_UNIT, FaceWindow
+    from facepuppet.capture.color.measure import Placement
+
+    rgb = np.zeros((300, 400, 3), np.uint8)
+    width = 40.0 / np.mean(BOX_UNIT)                                        # a window whose face is _frame()'s size
+    window = FaceWindow(np.array([200.0 - width / 2, 150.0 - width / 2, width, width]), np.eye(2, 3))
+    for total, windows, kept in ((0.9 * REFINE_TURN, (), True), (1.1 * REFINE_TURN, (), False),
+                                 (1.1 * REFINE_TURN, (window,), True)):
+        tracker = _TurningEyes(total / REFINE_STEPS)
+        acquirer = Acquirer(tracker, Placement(np.zeros((3, 2)), np.zeros(2), calibrated=True), None, (4, 4))
+        got = acquirer.refine(rgb, [_frame()], windows=list(windows))
+        assert (got is not None) == kept
+        if kept:
+            assert abs(got.frame.roll - total) < 1e-9

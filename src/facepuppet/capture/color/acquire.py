@@ -41,6 +41,7 @@ from facepuppet.capture.curves import CURVE_NAMES, bezier_points
 
 __all__ = ["Acquirer", "Measurer", "CANDIDATE_SHIFTS", "CANDIDATE_SCALES", "LIGHT_PERCENTILE", "LIGHT_TOP",
            "MOUTH_OFFSET_LIMIT", "MIN_UNIT", "LOST_REACH", "GLABELLA", "GLABELLA_SKIN", "REFINE_STEPS", "REFINE_SIZES",
+           "REFINE_TURN",
            "SAME_FACE", "SAME_ROLL", "WINDOW_SIZE_COST", "ANCHOR_STEPS", "ANCHOR_TOLERANCE",
            "candidate_frames", "fit_light", "likeness", "mouth_offset", "skin_between_brows"]
 
@@ -56,6 +57,7 @@ MOUTH_SAMPLES = 16                      # points        along each lip curve ave
 MIN_UNIT = 6                            # image pixels  smallest face (eye-centre distance) tracked
 REFINE_STEPS = 3                        # steps         eye-search steps pulling a candidate onto the eyes
 REFINE_SIZES = (0.8, 1.25)              # ratio         sizes the eye search may pull a candidate to, of its own
+REFINE_TURN = np.radians(20.0)          # radians       most the eye search may turn a candidate no window holds
 SAME_FACE = (0.25, 0.2)                 # face units, log size: the landmark backend's face is the one acquired
 ANCHOR_STEPS = 4                        # steps         most eye searches to find the eye blobs' fixed point
 ANCHOR_TOLERANCE = 0.25                 # crop pixels   step below which the fixed point is found
@@ -289,11 +291,14 @@ class Acquirer:
                windows: list[FaceWindow] = ()) -> Measurement | None:
         """Pull each candidate face frame onto the eyes; the result of most :meth:`value` (with ``last`` and the
         cascade's ``windows``; none a face just lost cannot move to, none the eye search pulled outside
-        :data:`REFINE_SIZES` of the candidate's size: a face's brows and mouth taken for its eyes), or None."""
+        :data:`REFINE_SIZES` of the candidate's size: a face's brows and mouth taken for its eyes, nor turned by more
+        than :data:`REFINE_TURN` unless a cascade window holds it: an eye and a brow, an ear or the hair beside a
+        turned head; a window's face is a face, and a window of a copy turned the other way may hold an upright
+        one), or None."""
         skinless = self.tracker.config.acquire.min_skinless_score
         best = None
         for cand in candidates:
-            result, start = None, cand.unit
+            result, start, roll = None, cand.unit, cand.roll
             for step in range(REFINE_STEPS):
                 result = self.tracker.measure(rgb, cand, follow=False, gain=1.0, outline=step == REFINE_STEPS - 1)
                 if result is None or not result.eyes_found:
@@ -302,6 +307,9 @@ class Acquirer:
             if result is None or not result.eyes_found or not np.isfinite(self.value(result, last, windows)):
                 continue
             if not REFINE_SIZES[0] <= result.frame.unit / start <= REFINE_SIZES[1]:
+                continue
+            turn = abs((result.frame.roll - roll + np.pi) % (2 * np.pi) - np.pi)
+            if turn > REFINE_TURN and not any(w.holds(result.frame) for w in windows):
                 continue
             if not self.place.skinless_ok and result.score < skinless and not skin_between_brows(
                     result.seen[0], [self.tracker.profile.skin, SkinModel()], self.tracker.config.measure.px):

@@ -18,11 +18,11 @@ import numpy as np
 
 from facepuppet.capture.color.align import blur3, ecc_affine
 from facepuppet.capture.color.config import FollowConfig
-from facepuppet.capture.color.face import CROP_EXTENT, FaceFrame, then_affine
+from facepuppet.capture.color.face import CROP_EXTENT, FaceFrame, same_frame, then_affine
 from facepuppet.capture.color.refind import LostFace
 
 __all__ = ["Follower", "FollowState", "ECC_EPS", "ECC_BLUR", "UNIT_JUMP", "UNIT_GAIN", "FRAME_MS", "LOST_MEMORY",
-           "OWN_LIKENESS", "OWN_CHECKS"]
+           "OWN_LIKENESS", "OWN_CHECKS", "NEAR"]
 
 log = logging.getLogger(__name__)
 
@@ -35,6 +35,9 @@ FRAME_MS = 1000.0 / 30   # milliseconds  the frame time UNIT_GAIN is given for
 LOST_MEMORY = 1000       # milliseconds  a lost face's last frame is searched near this long
 OWN_LIKENESS = 0.6       # fraction      of the face's best likeness a face found again must show ...
 OWN_CHECKS = 3           # checks        ... at its first checks
+#: How near (face units, log size, radians of roll) a face found again and not yet checked must be to the last face
+#: that was, to stand for it once lost.
+NEAR = (0.5, 0.25, 0.2)
 
 
 @dataclass
@@ -57,6 +60,9 @@ class FollowState:
     check_in: int = 1                       # frames to the next check of the likeness
     pose: object = None                     # the last head pose (the next solve starts there)
     turn_ms: int | None = None              # time of the last head-turn reading
+    #: The last face lost that had passed its first checks (its frame, size reference and the time it was lost
+    #: at), kept while the faces found again after it have not (:attr:`found_again`).
+    pending: tuple[FaceFrame, float, float] | None = None
 
     def still_the_face(self, frame: FaceFrame, correlation: float | None, config: FollowConfig,
                        ms: float | None = None) -> bool:
@@ -79,20 +85,44 @@ class FollowState:
 
     def lost_face(self, ms: float) -> LostFace | None:
         """The face just lost (in this frame, of time ``ms``, or in the last :data:`LOST_MEMORY` milliseconds) with
-        the size it had (the slow size reference), or None."""
+        the size it had (the slow size reference), or None.
+
+        A face found again that is lost before it has passed its first checks is the face just lost only where it
+        is about where the face that had passed them was (:attr:`pending`, :func:`_near`: a face behind a passing
+        hand, found and lost in turn); elsewhere, or rolled off it, that face is (a candidate taken on the hair or
+        an ear beside a turned head, lost at once, would otherwise be where the next search looks, and each such
+        face would lead the search further off the face), or none once it was lost more than
+        :data:`LOST_MEMORY` ago."""
+        if self.frame is not None and self.pending is not None and not _near(self.frame, self.pending[0]):
+            frame, unit, lost_ms = self.pending
+            return LostFace(frame, unit, max(ms - lost_ms, 0.0)) if ms - lost_ms <= LOST_MEMORY else None
         last = self.frame or self.dropped
         if last is None:
             return None
         return LostFace(last, self.unit_ref, 0.0 if self.frame is not None else max(ms - self.lost_ms, 0.0))
 
+    def found(self, last: LostFace | None, ms: float) -> None:
+        """A face was found in the frame of time ``ms``; ``last``: the face lost that it was searched near
+        (:meth:`lost_face`). Until the face found has passed its first checks, the last face that had passed them
+        stays :attr:`pending`."""
+        self.dropped = None
+        if last is None:
+            self.pending = None
+        elif self.pending is None:
+            self.pending = (last.frame, last.unit, ms - last.ms)
+
     def drop(self, ms: float, doubted: bool = False) -> None:
         """The face is lost in the frame of time ``ms`` (``doubted``: its crop no longer looked like a face); its
-        last frame is kept for a while (:meth:`lost_face`)."""
-        if self.frame is not None:
+        last frame is kept for a while (:meth:`lost_face`: a face that had not yet passed its first checks and is
+        not about where the last face that had was leaves that face's frame instead)."""
+        if self.frame is not None and self.pending is not None and not _near(self.frame, self.pending[0]):
+            self.dropped, self.unit_ref, self.lost_ms = self.pending
+            self.pending = None
+        elif self.frame is not None:
             self.dropped, self.lost_ms = self.frame, ms
         self.frame, self.doubted, self.ref_ms = None, self.doubted or doubted, None
         if ms - self.lost_ms > LOST_MEMORY:
-            self.dropped = self.score_ref = None
+            self.dropped = self.score_ref = self.pending = None
 
     def still_like_a_face(self, score: float, config: FollowConfig) -> bool:
         """Now and then: whether the followed crop, of likeness ``score`` to a face, still looks like one (the
@@ -109,11 +139,21 @@ class FollowState:
         if self.found_again and self.score_ref is not None:
             bar = max(bar, OWN_LIKENESS * self.score_ref)
         self.found_again = max(int(self.found_again) - 1, 0)
+        if not self.found_again:
+            self.pending = None                 # the face found again has shown it is the face
         self.score_ref = self.score if self.score_ref is None else max(self.score_ref, self.score)
         if self.score < bar:
             log.debug("face lost: the followed crop no longer looks like a face (score %.2f)", self.score)
             return False
         return True
+
+
+def _near(frame: FaceFrame, other: FaceFrame) -> bool:
+    """Whether ``frame`` is about where ``other`` is: within :data:`NEAR` (face units of ``other``, log size,
+    radians of roll) of it."""
+    move, size, roll = NEAR
+    turn = abs((frame.roll - other.roll + np.pi) % (2 * np.pi) - np.pi)
+    return turn <= roll and same_frame(other, frame, move, size)
 
 
 class Follower:

@@ -232,12 +232,11 @@ class ColorTracker:
         if result is None:
             # The face followed until now (or, for a while after it was lost, last followed) is searched near
             # where it was, at the size it had: after a blink, a turn or a hand passing, it is usually still there.
-            result = self._acquire(rgb, last=fol.lost_face(timestamp_ms))
+            result = self._acquire(rgb, timestamp_ms, last=fol.lost_face(timestamp_ms))
         if result is None:
             fol.drop(timestamp_ms)
             self.seen = None
             return FrameFeatures.lost(len(CURVE_NAMES), len(POINT_NAMES))
-        fol.dropped = None
         curves, fol.frame, self.seen = result.curves, result.frame, result.seen
         # A face just found: its reference crop was taken in the corrected frame, so the correction starts afresh.
         fol.correction = result.correction if followed else np.array(NO_CORRECTION)
@@ -462,11 +461,12 @@ class ColorTracker:
         return move_boxes(self._box_table, _SHIFTED, _MOUTH_BOX, self._place.shift, self._place.mouth_offset,
                           self._place.scale, self._place.anchor_mid, *self._size)
 
-    def _acquire(self, rgb: np.ndarray, last: LostFace | None = None) -> Measurement | None:
-        """Find the face afresh (:meth:`~.acquire.Acquirer.find`; ``last``: the face just lost, if any), the
-        filters and the alignment restarted. A face found again keeps its size reference (it was found at about
-        that size, :mod:`.refind`); one found where it was lost takes its likeness there as its own, unless it was
-        lost because it no longer looked like a face."""
+    def _acquire(self, rgb: np.ndarray, ms: int, last: LostFace | None = None) -> Measurement | None:
+        """Find the face afresh in the frame of time ``ms`` (:meth:`~.acquire.Acquirer.find`; ``last``: the face
+        just lost, if any), the filters and the alignment restarted. A face found again keeps its size reference
+        (it was found at about that size, :mod:`.refind`), and until it has passed its first checks the last face
+        that did stays the one to search near (:meth:`.FollowState.found`); one found where it was lost takes its
+        likeness there as its own, unless it was lost because it no longer looked like a face."""
         fol = self._follow
         self.searches += 1
         self._smoother.reset()
@@ -477,6 +477,7 @@ class ColorTracker:
         if best is None:
             return None
         fol.found_again = OWN_CHECKS if last is not None else 0
+        fol.found(last, ms)
         if last is not None and fol.score_ref is not None and same_frame(best.frame, last.frame) and not fol.doubted:
             fol.score_ref = min(fol.score_ref, best.score)      # found where it was: that is how it looks now
         fol.doubted = False
