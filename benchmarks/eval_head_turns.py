@@ -11,11 +11,12 @@ move by more than a change's effect.
 
 Printed per tracker (the colour tracker with the built-in profile; MediaPipe's backend beside it when its model
 is found): with several seeds, each one's coverage and mean curve error; then over all their frames the
-coverage, and per band of the true |yaw| the frames tracked and the mean curve error (NME: the mean distance of
-each curve's control points from the true ones over the true eye-centre distance; the painted curves are the
-reference, so MediaPipe's own contours are not quite on them either); then the correlation, mean absolute
-error (degrees) and slope (of the tracked yaw regressed on the true one) of yaw, pitch and roll over the
-frames tracked.
+coverage and the frames tracked wrong (valid, but with an NME over 0.5 or the roll more than 20 degrees off:
+another thing taken for the face, worse than a frame marked lost), and per band of the true |yaw| the frames
+tracked and the mean curve error (NME: the mean distance of each curve's control points from the true ones
+over the true eye-centre distance; the painted curves are the reference, so MediaPipe's own contours are not
+quite on them either); then the correlation, mean absolute error (degrees) and slope (of the tracked yaw
+regressed on the true one) of yaw, pitch and roll over the frames tracked.
 
     python benchmarks/eval_head_turns.py [--yaw 30] [--pitch 0] [--seconds 12] [--seeds 3 ...]
                                          [--model face_landmarker.task]
@@ -35,6 +36,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from eval_head_pose import track  # noqa: E402
 
 BANDS = ((0, 10), (10, 20), (20, 30), (30, 90))   # degrees of |yaw|
+WRONG_NME = 0.5                                    # a frame tracked with a larger NME ...
+WRONG_ROLL = 20.0                                  # ... or its roll off by more degrees is tracked wrong
 
 
 def performance(yaw_deg: float, pitch_deg: float, seconds: float, seed: int = 3):
@@ -71,7 +74,9 @@ def curve_error(curves: np.ndarray, truth_curves: np.ndarray) -> np.ndarray:
 def report(name: str, valid, curves, angles, truth_curves, truth_angles) -> None:
     nme = curve_error(curves, truth_curves)
     yaw = np.degrees(np.abs(truth_angles[:, 0]))
-    print(f"{name}: coverage {valid.mean():.3f}")
+    off = np.degrees(np.abs((angles[:, 2] - truth_angles[:, 2] + np.pi) % (2 * np.pi) - np.pi))
+    wrong = valid & ((nme > WRONG_NME) | (off > WRONG_ROLL))
+    print(f"{name}: coverage {valid.mean():.3f}; frames tracked wrong {wrong.sum()} of {len(valid)}")
     for lo, hi in BANDS:
         band = (yaw >= lo) & (yaw < hi)
         if band.any():
