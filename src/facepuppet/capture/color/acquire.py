@@ -130,7 +130,7 @@ def _skin_share(rgb: np.ndarray, win: FaceWindow, skin) -> float:
 
 def _same_roll(a: FaceFrame, b: FaceFrame) -> bool:
     """Whether two face frames' rolls are within :data:`SAME_ROLL` of each other."""
-    return abs((a.roll - b.roll + np.pi) % (2 * np.pi) - np.pi) < SAME_ROLL
+    return abs(b.turn_to(a)) < SAME_ROLL
 
 
 class Measurer(Protocol):
@@ -298,7 +298,7 @@ class Acquirer:
         skinless = self.tracker.config.acquire.min_skinless_score
         best = None
         for cand in candidates:
-            result, start, roll = None, cand.unit, cand.roll
+            result, start = None, cand
             for step in range(REFINE_STEPS):
                 result = self.tracker.measure(rgb, cand, follow=False, gain=1.0, outline=step == REFINE_STEPS - 1)
                 if result is None or not result.eyes_found:
@@ -306,10 +306,9 @@ class Acquirer:
                 cand = result.frame
             if result is None or not result.eyes_found or not np.isfinite(self.value(result, last, windows)):
                 continue
-            if not REFINE_SIZES[0] <= result.frame.unit / start <= REFINE_SIZES[1]:
+            if not REFINE_SIZES[0] <= result.frame.unit / start.unit <= REFINE_SIZES[1]:
                 continue
-            turn = abs((result.frame.roll - roll + np.pi) % (2 * np.pi) - np.pi)
-            if turn > REFINE_TURN and not any(w.holds(result.frame) for w in windows):
+            if abs(start.turn_to(result.frame)) > REFINE_TURN and not any(w.holds(result.frame) for w in windows):
                 continue
             if not self.place.skinless_ok and result.score < skinless and not skin_between_brows(
                     result.seen[0], [self.tracker.profile.skin, SkinModel()], self.tracker.config.measure.px):

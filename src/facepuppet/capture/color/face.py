@@ -309,11 +309,15 @@ class FaceFrame:
         return FaceFrame(np.array([ax * s02 - ay * s12 + ox, ay * s02 + ax * s12 + oy]),
                          np.array([ax * s00 - ay * s10, ay * s00 + ax * s10]))
 
+    def turn_to(self, other: FaceFrame) -> float:
+        """The roll of ``other`` less this frame's, radians in [-pi, pi)."""
+        return (other.roll - self.roll + np.pi) % (2 * np.pi) - np.pi
+
     def blend(self, other: FaceFrame, alpha: float) -> FaceFrame:
         """(1 − alpha) self + alpha other, in origin, log-scale and roll."""
         o = (1 - alpha) * self.origin + alpha * other.origin
         s = np.exp((1 - alpha) * np.log(self.unit) + alpha * np.log(other.unit))
-        dr = (other.roll - self.roll + np.pi) % (2 * np.pi) - np.pi
+        dr = self.turn_to(other)
         r = self.roll + alpha * dr
         return FaceFrame(o, s * np.array([np.cos(r), np.sin(r)]))
 

@@ -93,13 +93,18 @@ class FollowState:
         an ear beside a turned head, lost at once, would otherwise be where the next search looks, and each such
         face would lead the search further off the face), or none once it was lost more than
         :data:`LOST_MEMORY` ago."""
-        if self.frame is not None and self.pending is not None and not _near(self.frame, self.pending[0]):
+        if self._stray():
             frame, unit, lost_ms = self.pending
             return LostFace(frame, unit, max(ms - lost_ms, 0.0)) if ms - lost_ms <= LOST_MEMORY else None
         last = self.frame or self.dropped
         if last is None:
             return None
         return LostFace(last, self.unit_ref, 0.0 if self.frame is not None else max(ms - self.lost_ms, 0.0))
+
+    def _stray(self) -> bool:
+        """Whether the face followed now was found again, has not yet passed its first checks, and is not about
+        where the last face that had passed them was (:attr:`pending`, :func:`_near`)."""
+        return self.frame is not None and self.pending is not None and not _near(self.frame, self.pending[0])
 
     def found(self, last: LostFace | None, ms: float) -> None:
         """A face was found in the frame of time ``ms``; ``last``: the face lost that it was searched near
@@ -115,7 +120,7 @@ class FollowState:
         """The face is lost in the frame of time ``ms`` (``doubted``: its crop no longer looked like a face); its
         last frame is kept for a while (:meth:`lost_face`: a face that had not yet passed its first checks and is
         not about where the last face that had was leaves that face's frame instead)."""
-        if self.frame is not None and self.pending is not None and not _near(self.frame, self.pending[0]):
+        if self._stray():
             self.dropped, self.unit_ref, self.lost_ms = self.pending
             self.pending = None
         elif self.frame is not None:
@@ -152,8 +157,7 @@ def _near(frame: FaceFrame, other: FaceFrame) -> bool:
     """Whether ``frame`` is about where ``other`` is: within :data:`NEAR` (face units of ``other``, log size,
     radians of roll) of it."""
     move, size, roll = NEAR
-    turn = abs((frame.roll - other.roll + np.pi) % (2 * np.pi) - np.pi)
-    return turn <= roll and same_frame(other, frame, move, size)
+    return abs(other.turn_to(frame)) <= roll and same_frame(other, frame, move, size)
 
 
 class Follower:

@@ -79,7 +79,7 @@ def plausible(frame: FaceFrame, lost: LostFace, held: bool = False) -> bool:
     lo, hi = size_band(lost.ms, held)
     if not lo <= np.log(frame.unit / lost.unit) <= hi:
         return False
-    roll = abs((frame.roll - last.roll + np.pi) % (2 * np.pi) - np.pi)
+    roll = abs(last.turn_to(frame))
     far = float(np.hypot(*(frame.origin - last.origin))) > LOST_REACH * lost.unit
     return roll <= LOST_ROLL and not far
 
