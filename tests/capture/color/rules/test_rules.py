@@ -491,3 +491,60 @@ def test_mouth_corners_lie_on_the_line_where_the_lips_meet():
                            blob_params=params, unit=px, mouth_reach=GENERIC_MOUTH_REACH)
     assert out[uo, 0, 1] == pytest.approx(line + 0.5, abs=1.0), (out[uo, 0, 1], line)
     assert out[uo, 3, 1] == pytest.approx(line + 0.5, abs=1.0), (out[uo, 3, 1], line)
+
+
+def _tongue_scene(band_rgb, grey=False, height=0.5):
+    """An open mouth drawn on the layout: skin (RGB 200, 150, 130), a mouth blob (C = 1) from the layout's upper
+    outer lip ``height`` face units down; in it a dark band 0.08 face units tall at the top, of ``band_rgb``, and
+    below it a lip-coloured tongue (RGB 185, 95, 100) to the blob's bottom. ``grey`` turns the picture grey.
+    Returns the curves, the layout, the band's top and bottom rows, the blob's bottom row and px."""
+    layout, boxes, params, (h, w), px = _scene()
+    uo = CURVE_NAMES.index("lip_upper_outer")
+    xl, xr = int(layout[uo, 0, 0]) + 3, int(layout[uo, 3, 0]) - 3
+    top = int(round(_mid(layout[uo])[1]))
+    band, bottom = top + int(round(0.08 * px)), top + int(round(height * px))
+    rgb = np.empty((h, w, 3), np.uint8)
+    rgb[...] = (200, 150, 130)
+    rgb[top:bottom, xl:xr] = (185, 95, 100)
+    rgb[top:band, xl:xr] = band_rgb
+    if grey:
+        rgb[...] = cv2.cvtColor(cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY), cv2.COLOR_GRAY2RGB)
+    C = np.zeros((h, w), np.float32)
+    C[top:bottom, xl:xr] = 1.0
+    value = np.ascontiguousarray(cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV)[..., 2])
+    out = outline_features(C, raw=np.zeros((h, w), np.float32), value=value, layout=layout, boxes=boxes,
+                           blob_params=params, unit=px, mouth_reach=GENERIC_MOUTH_REACH, rgb=rgb)
+    return out, layout, top, band, bottom, px
+
+
+@pytest.mark.parametrize("band_rgb, hair", [((70, 20, 25), False),       # the mouth's dark red inside
+                                            ((60, 45, 35), True)])       # dark brown hair
+def test_dark_band_at_the_mouths_top_is_hair_only_if_not_red(band_rgb, hair):
+    """A dark band at the top of the mouth blob over lip-coloured rows: hair over the lips (the lips start under
+    it) where it is no redder for its brightness than the skin; the opening (the upper inner lip at its top)
+    where it is red, as a mouth's inside is."""
+    out, _, top, band, _, _ = _tongue_scene(band_rgb, height=0.3)
+    ui = CURVE_NAMES.index("lip_upper_inner")
+    if hair:
+        assert _mid(out[ui])[1] >= band - 1.0, (_mid(out[ui])[1], top, band)
+    else:
+        assert abs(_mid(out[ui])[1] - top) < 2.0, (_mid(out[ui])[1], top, band)
+
+
+@pytest.mark.parametrize("grey", [False, True])
+def test_open_mouths_lower_lip_is_no_thicker_than_its_bound(grey):
+    """A mouth open wide (the blob twice the layout's height) whose opening is dark only in a band at its top,
+    a lip-coloured tongue below: the inner lower lip lies LOWER_THICKNESS of the layout's lower lip above the
+    outer one, not on the tongue's top. On grey footage (the tongue and the chin's shade are not told from the
+    lips) it stays near the dark band."""
+    from facepuppet.capture.color.rules.mouth import LOWER_THICKNESS
+
+    out, layout, top, band, bottom, px = _tongue_scene((70, 20, 25), grey=grey)
+    lo, li = CURVE_NAMES.index("lip_lower_outer"), CURVE_NAMES.index("lip_lower_inner")
+    thick = LOWER_THICKNESS * (_mid(layout[lo])[1] - _mid(layout[li])[1])
+    assert abs(_mid(out[lo])[1] - bottom) < 2.0
+    if grey:
+        assert _mid(out[li])[1] < band + 0.1 * px < _mid(out[lo])[1] - thick, (_mid(out[li])[1], band, px)
+    else:
+        assert _mid(out[lo])[1] - _mid(out[li])[1] == pytest.approx(thick, abs=0.5)
+        assert _mid(out[li])[1] > band + 0.1 * px

@@ -2,6 +2,9 @@
 
 Corners and outer lips come from the blob's outline, inner lips from the mouth opening inside it (dark pixels,
 or pixels the blob leaves out between its top and bottom, as teeth), or the lip crease when the mouth is closed.
+An open mouth's lips keep about their thickness: at least :data:`OPEN_THICKNESS` of the layout's (pale lips
+outside a blob that is the opening alone), the lower one at most :data:`LOWER_THICKNESS` (a tongue the colour of
+the lips filling the opening below its dark part).
 
 Conventions: crop pixels, x right, y down; curves (C, 4, 2) in :data:`~facepuppet.capture.curves.CURVE_NAMES`
 order; ``unit`` is crop pixels per face unit; ``value`` the HSV value V (0..255).
@@ -15,7 +18,7 @@ import numpy as np
 from facepuppet._util.jit import INNER, KERNEL
 from facepuppet.capture.color.blobs import blob_kernel, label8, open_mask
 from facepuppet.capture.color.eye_anchors import skin_reference
-from facepuppet.capture.color.rules.hair import hair_trim, red_chroma
+from facepuppet.capture.color.rules.hair import HAIR_CR, hair_trim, red_chroma
 from facepuppet.capture.color.rules.kernels import median, median_of_boxes, mid_shift, quantile, sample_profile
 from facepuppet.capture.curves import CURVE_NAMES
 
@@ -44,8 +47,11 @@ FOLLOW_SPAN = 0.6          # fraction      of the layout's mouth width the blob 
 LIP_GAP = 0.1              # face units    gap in a column across which a lip part beyond the blob joins it
 LIP_EXTEND = 0.25          # face units    farthest a column's outer lip edge is moved out across such gaps
 OPEN_THICKNESS = 0.8       # fraction      of the layout's lip thickness an open mouth's lips keep at least
+LOWER_THICKNESS = 1.5      # fraction      of the layout's lower lip thickness an open mouth's lower lip keeps at most
+OPEN_HEIGHT = 1.3          # fraction      of the layout's mouth height (outer lips) past which the mouth is open
 HAIR_SLACK = 0.1           # face units    below the layout's lips' line hair over a closed mouth may end
 HAIR_MIN = 0.04            # face units    least height of a dark run at the blob's top (hair) and of the lip below it
+HAIR_REDNESS = 1.5         # ratio         a dark run is hair if no redder for its brightness than this times the cheeks
 TEETH_LEVEL = 0.8          # fraction      pixels brighter than this times the skin's V just beyond the blob are teeth
 TEETH_SATURATION = 0.75    # fraction      teeth are less saturated than this times the skin's saturation
 TEETH_GAP = 0.1            # face units    farthest beyond the blob such a run may start (the blob's blurred edge)
@@ -57,19 +63,23 @@ CORNER_DEPTH = 0.08        # fraction      of the skin's V the line is darker th
 
 @nb.njit(**INNER)
 def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.ndarray, value: np.ndarray,
-             sat: np.ndarray, skin: float, sat_max: float, line: float, unit: float):
+             sat: np.ndarray, skin: float, sat_max: float, line: float, unit: float, cr: np.ndarray, skin_cr: float):
     """Top and bottom of the mouth opening per column of the mouth rectangle (the lip crease if closed), and
     where the lips start at the top (below hair over the upper lip; else the blob's top), and whether each
     column holds lip (not only dark pixels).
 
-    ``value`` is the HSV value V (0..255) of the rectangle, ``sat`` its saturation (0..1), ``skin`` the cheeks'
-    median V, ``line`` the y of the layout's line between the lips (rectangle pixels). The opening is dark
+    ``value`` is the HSV value V (0..255) of the rectangle, ``sat`` its saturation (0..1), ``cr`` its Cr
+    (:func:`~.hair.red_chroma`), ``skin`` and ``skin_cr`` the cheeks' median V and Cr, ``line`` the y of the
+    layout's line between the lips (rectangle pixels); footage whose cheeks are within :data:`~.hair.HAIR_CR`
+    of grey is taken for grey. The opening is dark
     (below :data:`DARK_FRACTION` of the lips' brightness, or of the skin's if lower), left out of the lip blob
     between its top and bottom, or teeth just beyond the blob (brighter than :data:`TEETH_LEVEL` of the skin
     and less saturated than ``sat_max``); its largest 8-connected part counts if it is big and wide enough,
     with the parts stacked above and below it.
     """
     h, w = mask.shape
+    grey = skin_cr - 128.0 < HAIR_CR
+    skin_red = (skin_cr - 128.0) / max(skin, 1.0)
     lips = np.empty(h * w)
     n = 0
     for y in range(h):
@@ -110,9 +120,12 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
         while y < bottom[x] and mask[y, x] and value[y, x] >= thr:
             y += 1
         # (lip below the dark run down to the blob's bottom: a closed mouth under hair if the run ends above
-        # where the layout puts the lips' line; else the lips may be pale and the run the opening)
+        # where the layout puts the lips' line; else the lips may be pale and the run the opening). Hair is no
+        # redder for its brightness than HAIR_REDNESS times the cheeks; a mouth's dark inside above a tongue is
+        # (on grey footage the value alone decides).
         below = y < bottom[x] - 1 or end <= line + HAIR_SLACK * unit
-        if end - start >= hair_min and y - end >= hair_min and below and \
+        hairy = grey or _redness(cr, value, x, start, end) <= HAIR_REDNESS * skin_red
+        if end - start >= hair_min and y - end >= hair_min and below and hairy and \
                 _teeth_end(value[:, x], sat[:, x], int(top[x]) - 1, -1, teeth, sat_max, edge, most, split) < 0:
             lip_top[x] = end                         # (teeth above the dark run: it is the opening)
     for x in range(w):
@@ -174,6 +187,16 @@ def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.nda
                 obot[x] = y + 1
                 break
     return otop, obot, lip_top, lit
+
+
+@nb.njit(**INNER)
+def _redness(cr: np.ndarray, value: np.ndarray, x: int, a: int, b: int) -> float:
+    """Mean over rows ``a`` .. ``b - 1`` of column ``x`` of the chroma Cr - 128 over the value V: how red a pixel
+    is for its brightness (a dark pixel has less chroma)."""
+    total = 0.0
+    for y in range(a, b):
+        total += (cr[y, x] - 128.0) / max(value[y, x], 1.0)
+    return total / max(b - a, 1)
 
 
 @nb.njit(**INNER)
@@ -375,14 +398,15 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, rgb: np.ndarray, layout: np
         cheeks[i] = median(cs.ravel()) if cs.size else 0.0
     sat_max = TEETH_SATURATION * median(cheeks)
     # Hair above and below the lips (less red than the cheeks, the lips redder) is left out of the blob.
-    top, bottom, hair_top, beard = hair_trim(red_chroma(rgb, x0, y0, x1, y1), cols, top, bottom,
-                                             128.0 + skin_reference(rgb, boxes[5:7])[1], cy - y0, unit)
+    cr = red_chroma(rgb, x0, y0, x1, y1)
+    skin_cr = 128.0 + skin_reference(rgb, boxes[5:7])[1]
+    top, bottom, hair_top, beard = hair_trim(cr, cols, top, bottom, skin_cr, cy - y0, unit)
     for x in range(len(cols)):
         if hair_top[x] or beard[x]:
             mask[:int(top[x]), x] = 0
             mask[int(bottom[x]):, x] = 0
     itop, ibot, ltop, lit = _opening(mask, cols, top, bottom, value[y0:y1, x0:x1],
-                                     _saturation(rgb, x0, y0, x1, y1), skin, sat_max, cy - y0, unit)
+                                     _saturation(rgb, x0, y0, x1, y1), skin, sat_max, cy - y0, unit, cr, skin_cr)
     hair = (ltop > top) | hair_top
     top = ltop
     if hair.sum() >= MOUTH_MIN_COLUMNS:
@@ -450,12 +474,21 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, rgb: np.ndarray, layout: np
         out[li, j, 1] = min(max(out[li, j, 1], out[ui, j, 1]), out[lo, j, 1])
         # The lower lip keeps at least the layout's thickness (a pale lower lip leaves the blob short of it).
         out[lo, j, 1] = max(out[lo, j, 1], out[li, j, 1] + lay[lo, j, 1] - lay[li, j, 1])
-    # An open mouth's lips keep most of their thickness: where the blob is the dark opening itself (lips
-    # paler than the opening in C), the outer lips lie beyond the inner ones by the lips, not on them.
-    gap = _mid_y(out[li]) - _mid_y(out[ui])
-    if gap > OPENING_MIN_WIDTH * unit:
+    # An open mouth (a dark gap between the inner lips, or the outer lips much farther apart than the layout's)
+    # has lips of about their own thickness. Its lower lip is no thicker than LOWER_THICKNESS of the layout's:
+    # a tongue or lower teeth that are not dark fill the opening under its dark part, and the inner lower lip
+    # lies that far above the outer one. Its lips keep OPEN_THICKNESS of the layout's: where the blob is the
+    # dark opening itself (lips paler than the opening in C), the outer lips lie beyond the inner ones.
+    height = _mid_y(out[lo]) - _mid_y(out[uo])
+    grey = skin_cr - 128.0 < HAIR_CR
+    if _mid_y(out[li]) - _mid_y(out[ui]) > OPENING_MIN_WIDTH * unit or \
+            height > OPEN_HEIGHT * (_mid_y(lay[lo]) - _mid_y(lay[uo])):
+        extra = _mid_y(out[lo]) - _mid_y(out[li]) - LOWER_THICKNESS * (_mid_y(lay[lo]) - _mid_y(lay[li]))
         tu = OPEN_THICKNESS * (_mid_y(lay[ui]) - _mid_y(lay[uo]))
         tl = OPEN_THICKNESS * (_mid_y(lay[lo]) - _mid_y(lay[li]))
+        for j in (1, 2):
+            if extra > 0 and not grey:
+                out[li, j, 1] += extra / 0.75
         du = _mid_y(out[ui]) - tu - _mid_y(out[uo])
         dl = _mid_y(out[li]) + tl - _mid_y(out[lo])
         for j in (1, 2):
