@@ -412,7 +412,8 @@ def _open_mouth_scene(glossy: bool):
 
 def test_open_mouth_with_pale_lips_keeps_the_lips_outside_the_opening():
     """Only the dark opening is high in C (pale lips): the inner lips trace the opening's top and bottom, and
-    the outer lips lie the lips' thickness (0.8 of the layout's at least) beyond them, not on the opening."""
+    the outer lips lie the lips' thickness (OPEN_THICKNESS of the layout's at least) beyond them, not on it."""
+    from facepuppet.capture.color.rules.mouth import OPEN_THICKNESS
     from facepuppet.capture.curves import CURVE_NAMES
 
     out, layout, top, bottom, _, px = _open_mouth_scene(glossy=False)
@@ -421,8 +422,8 @@ def test_open_mouth_with_pale_lips_keeps_the_lips_outside_the_opening():
     assert abs(_mid(out[ui])[1] - top) < 2.0 and abs(_mid(out[li])[1] - bottom) < 2.0
     thick_u = _mid(layout[ui])[1] - _mid(layout[uo])[1]
     thick_l = _mid(layout[lo])[1] - _mid(layout[li])[1]
-    assert _mid(out[ui])[1] - _mid(out[uo])[1] >= 0.8 * thick_u - 1e-6
-    assert _mid(out[lo])[1] - _mid(out[li])[1] >= 0.8 * thick_l - 1e-6
+    assert _mid(out[ui])[1] - _mid(out[uo])[1] >= OPEN_THICKNESS * thick_u - 1e-6
+    assert _mid(out[lo])[1] - _mid(out[li])[1] >= OPEN_THICKNESS * thick_l - 1e-6
 
 
 def test_glossy_lower_lip_is_not_cut_off_the_mouth():
@@ -548,3 +549,27 @@ def test_open_mouths_lower_lip_is_no_thicker_than_its_bound(grey):
     else:
         assert _mid(out[lo])[1] - _mid(out[li])[1] == pytest.approx(thick, abs=0.5)
         assert _mid(out[li])[1] > band + 0.1 * px
+
+
+def test_thin_dark_band_under_the_upper_lip_starts_the_opening():
+    """An open mouth drawn on the layout: upper lip, a dark band 2 px tall under it (too thin to survive the
+    opening's morphology), a lip-coloured tongue, a dark cavity low in the mouth, the lower lip; all one blob in
+    C. The upper inner lip lies on the band, not on the cavity's top."""
+    layout, boxes, params, (h, w), px = _scene()
+    uo = CURVE_NAMES.index("lip_upper_outer")
+    ui = CURVE_NAMES.index("lip_upper_inner")
+    xl, xr = int(layout[uo, 0, 0]) + 3, int(layout[uo, 3, 0]) - 3
+    top = int(round(_mid(layout[uo])[1]))
+    band = top + int(round(0.1 * px))
+    cavity, lower, bottom = band + int(round(0.2 * px)), band + int(round(0.35 * px)), band + int(round(0.5 * px))
+    rgb = np.empty((h, w, 3), np.uint8)
+    rgb[...] = (200, 150, 130)
+    rgb[top:bottom, xl:xr] = (185, 95, 100)
+    rgb[band:band + 2, xl:xr] = (70, 20, 25)
+    rgb[cavity:lower, xl:xr] = (50, 15, 20)
+    C = np.zeros((h, w), np.float32)
+    C[top:bottom, xl:xr] = 1.0
+    value = np.ascontiguousarray(cv2.cvtColor(rgb, cv2.COLOR_RGB2HSV)[..., 2])
+    out = outline_features(C, raw=np.zeros((h, w), np.float32), value=value, layout=layout, boxes=boxes,
+                           blob_params=params, unit=px, mouth_reach=GENERIC_MOUTH_REACH, rgb=rgb)
+    assert abs(_mid(out[ui])[1] - band) < 1.5, (_mid(out[ui])[1], band, cavity)

@@ -16,10 +16,11 @@ import numba as nb
 import numpy as np
 
 from facepuppet._util.jit import INNER, KERNEL
-from facepuppet.capture.color.blobs import blob_kernel, label8, open_mask
+from facepuppet.capture.color.blobs import blob_kernel
 from facepuppet.capture.color.eye_anchors import skin_reference
 from facepuppet.capture.color.rules.hair import HAIR_CR, hair_trim, red_chroma
-from facepuppet.capture.color.rules.kernels import median, median_of_boxes, mid_shift, quantile, sample_profile
+from facepuppet.capture.color.rules.kernels import median, median_of_boxes, mid_shift, sample_profile
+from facepuppet.capture.color.rules.opening import OPENING_MIN_WIDTH, TEETH_SATURATION, mouth_opening, saturation
 from facepuppet.capture.curves import CURVE_NAMES
 
 __all__ = ["mouth_outlines"]
@@ -36,211 +37,15 @@ LIP_HIGH = np.array([0.15, 0.8, 0.15, 0.8])
 MOUTH_NEAR = 0.3           # face units    radius around the layout's mouth centre where the lip blob is preferred
 BLOB_MIN_AREA = 3          # pixels        smallest blob that counts (:func:`~.blobs.blob_kernel`)
 MOUTH_MIN_COLUMNS = 4      # columns       fewest columns of the mouth blob for the lips to be read
-LIP_LEVEL_QUANTILE = 0.9   # quantile      the lips' brightness: this quantile of V over the lip blob
-LIP_LEVEL_FLOOR = 0.6      # fraction      least lips' brightness, as a share of the skin's V
-DARK_FRACTION = 0.65       # fraction      pixels darker than this times the lips' or the skin's V are opening
-OPENING_OPEN = 3           # pixels        side of the opening (morphology) that clears specks off the opening
-OPENING_MIN_AREA = 0.004   # face units^2  smallest opening that counts as an open mouth
-OPENING_MIN_WIDTH = 0.1    # face units    narrowest opening that counts as an open mouth
 MOUTH_FOLLOW = 0.3         # face units    farthest the lips' and corners' bounds follow the blob (up, down, sideways)
 FOLLOW_SPAN = 0.6          # fraction      of the layout's mouth width the blob must span for the bounds to follow it
 LIP_GAP = 0.1              # face units    gap in a column across which a lip part beyond the blob joins it
 LIP_EXTEND = 0.25          # face units    farthest a column's outer lip edge is moved out across such gaps
-OPEN_THICKNESS = 0.8       # fraction      of the layout's lip thickness an open mouth's lips keep at least
+OPEN_THICKNESS = 1.0       # fraction      of the layout's lip thickness an open mouth's lips keep at least
 LOWER_THICKNESS = 1.5      # fraction      of the layout's lower lip thickness an open mouth's lower lip keeps at most
 OPEN_HEIGHT = 1.3          # fraction      of the layout's mouth height (outer lips) past which the mouth is open
-HAIR_SLACK = 0.1           # face units    below the layout's lips' line hair over a closed mouth may end
-HAIR_MIN = 0.04            # face units    least height of a dark run at the blob's top (hair) and of the lip below it
-HAIR_REDNESS = 1.5         # ratio         a dark run is hair if no redder for its brightness than this times the cheeks
-TEETH_LEVEL = 0.8          # fraction      pixels brighter than this times the skin's V just beyond the blob are teeth
-TEETH_SATURATION = 0.75    # fraction      teeth are less saturated than this times the skin's saturation
-TEETH_GAP = 0.1            # face units    farthest beyond the blob such a run may start (the blob's blurred edge)
-TEETH_MAX = 0.45           # face units    tallest run of teeth the opening takes in above or below the blob
-TEETH_SPLIT = 0.08         # face units    longest break inside a run of teeth (the line between two rows of teeth)
 CORNER_SEARCH = 0.15       # face units    farthest inside the blob's end a column crossing the lips' line is looked for
 CORNER_DEPTH = 0.08        # fraction      of the skin's V the line is darker than the lip above and below it
-
-
-@nb.njit(**INNER)
-def _opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np.ndarray, value: np.ndarray,
-             sat: np.ndarray, skin: float, sat_max: float, line: float, unit: float, cr: np.ndarray, skin_cr: float):
-    """Top and bottom of the mouth opening per column of the mouth rectangle (the lip crease if closed), and
-    where the lips start at the top (below hair over the upper lip; else the blob's top), and whether each
-    column holds lip (not only dark pixels).
-
-    ``value`` is the HSV value V (0..255) of the rectangle, ``sat`` its saturation (0..1), ``cr`` its Cr
-    (:func:`~.hair.red_chroma`), ``skin`` and ``skin_cr`` the cheeks' median V and Cr, ``line`` the y of the
-    layout's line between the lips (rectangle pixels); footage whose cheeks are within :data:`~.hair.HAIR_CR`
-    of grey is taken for grey. The opening is dark
-    (below :data:`DARK_FRACTION` of the lips' brightness, or of the skin's if lower), left out of the lip blob
-    between its top and bottom, or teeth just beyond the blob (brighter than :data:`TEETH_LEVEL` of the skin
-    and less saturated than ``sat_max``); its largest 8-connected part counts if it is big and wide enough,
-    with the parts stacked above and below it.
-    """
-    h, w = mask.shape
-    grey = skin_cr - 128.0 < HAIR_CR
-    skin_red = (skin_cr - 128.0) / max(skin, 1.0)
-    lips = np.empty(h * w)
-    n = 0
-    for y in range(h):
-        for x in range(w):
-            if mask[y, x]:
-                lips[n] = value[y, x]
-                n += 1
-    level = quantile(lips[:n], LIP_LEVEL_QUANTILE) if n else skin
-    # A blob that is all opening (pale lips) has the opening's own level: the lips are taken to be at least
-    # LIP_LEVEL_FLOOR of the skin's brightness.
-    thr = DARK_FRACTION * min(max(level, LIP_LEVEL_FLOOR * skin), skin)
-    opening = np.zeros((h, w), np.uint8)
-    crease = np.empty(w, np.float32)
-    # Hair above the lips (a moustache) is dark as the opening and joins the lip blob at its top: a dark run at
-    # the blob's top with lip below it and more blob below that is not the opening, and the lips start under it.
-    teeth = TEETH_LEVEL * skin
-    most = int(TEETH_MAX * unit + 0.5)
-    edge = int(TEETH_GAP * unit + 0.5)
-    split = int(TEETH_SPLIT * unit + 0.5)
-    lip_top = top.copy()
-    lit = np.zeros(w, np.bool_)
-    hair_min = max(int(HAIR_MIN * unit + 0.5), 1)
-    for x in range(w):
-        if not cols[x]:
-            continue
-        n_lit = 0
-        for y in range(h):
-            if mask[y, x] and value[y, x] >= thr:
-                n_lit += 1
-        lit[x] = n_lit >= hair_min
-        y = int(top[x])
-        if y < bottom[x] and value[y, x] >= thr:
-            y += 1                                   # the blob's blurred edge
-        start = y
-        while y < bottom[x] and mask[y, x] and value[y, x] < thr:
-            y += 1
-        end = y
-        while y < bottom[x] and mask[y, x] and value[y, x] >= thr:
-            y += 1
-        # (lip below the dark run down to the blob's bottom: a closed mouth under hair if the run ends above
-        # where the layout puts the lips' line; else the lips may be pale and the run the opening). Hair is no
-        # redder for its brightness than HAIR_REDNESS times the cheeks; a mouth's dark inside above a tongue is
-        # (on grey footage the value alone decides).
-        below = y < bottom[x] - 1 or end <= line + HAIR_SLACK * unit
-        hairy = grey or _redness(cr, value, x, start, end) <= HAIR_REDNESS * skin_red
-        if end - start >= hair_min and y - end >= hair_min and below and hairy and \
-                _teeth_end(value[:, x], sat[:, x], int(top[x]) - 1, -1, teeth, sat_max, edge, most, split) < 0:
-            lip_top[x] = end                         # (teeth above the dark run: it is the opening)
-    for x in range(w):
-        best = np.inf
-        arg = -1
-        for y in range(h):
-            if cols[x] and lip_top[x] + 1 <= y < bottom[x] - 1:
-                if value[y, x] < thr or not mask[y, x]:
-                    opening[y, x] = 1
-                if value[y, x] < best:
-                    best = value[y, x]
-                    arg = y
-        crease[x] = arg + 0.5 if arg >= 0 else (lip_top[x] + bottom[x]) / 2.0
-        if cols[x] and lip_top[x] == top[x]:
-            # Teeth just beyond the blob (a pale lip left out of it): the opening reaches the lip past them.
-            for step in (-1, 1):
-                start = int(top[x]) - 1 if step < 0 else int(bottom[x])
-                end = _teeth_end(value[:, x], sat[:, x], start, step, teeth, sat_max, edge, most, split)
-                if end >= 0:
-                    for y in range(min(start, end), max(start, end) + 1):
-                        opening[y, x] = 1
-    opening = open_mask(opening, OPENING_OPEN)
-    labels, count = label8(opening)
-    if count < 2:
-        return crease, crease.copy(), lip_top, lit
-    area = np.zeros(count, np.int64)
-    xmin = np.full(count, w)
-    xmax = np.full(count, -1)
-    seen = np.zeros(count, np.int64)                 # pixels of each part that are dark or teeth
-    for y in range(h):
-        for x in range(w):
-            k = labels[y, x]
-            if k:
-                area[k] += 1
-                if value[y, x] < thr or (value[y, x] > teeth and sat[y, x] < sat_max):
-                    seen[k] += 1
-                xmin[k] = min(xmin[k], x)
-                xmax[k] = max(xmax[k], x)
-    k = 1 + np.argmax(area[1:])
-    if area[k] < OPENING_MIN_AREA * unit * unit or xmax[k] - xmin[k] + 1 < OPENING_MIN_WIDTH * unit:
-        return crease, crease.copy(), lip_top, lit
-    # Parts of the opening that a tongue (lip-coloured) or a band of teeth splits apart lie above and below
-    # each other: every large enough part across the same columns as the largest, mostly dark or teeth (not a
-    # lip's highlight the blob left out), is the opening too.
-    take = np.zeros(count, np.bool_)
-    for j in range(1, count):
-        overlap = min(xmax[j], xmax[k]) - max(xmin[j], xmin[k]) + 1
-        take[j] = j == k or (area[j] >= OPENING_MIN_AREA * unit * unit and 2 * seen[j] >= area[j]
-                             and overlap >= 0.5 * min(xmax[j] - xmin[j] + 1, xmax[k] - xmin[k] + 1))
-    otop = crease.copy()
-    obot = crease.copy()
-    for x in range(w):
-        for y in range(h):
-            if labels[y, x] > 0 and take[labels[y, x]]:
-                otop[x] = y
-                break
-        for y in range(h - 1, -1, -1):
-            if labels[y, x] > 0 and take[labels[y, x]]:
-                obot[x] = y + 1
-                break
-    return otop, obot, lip_top, lit
-
-
-@nb.njit(**INNER)
-def _redness(cr: np.ndarray, value: np.ndarray, x: int, a: int, b: int) -> float:
-    """Mean over rows ``a`` .. ``b - 1`` of column ``x`` of the chroma Cr - 128 over the value V: how red a pixel
-    is for its brightness (a dark pixel has less chroma)."""
-    total = 0.0
-    for y in range(a, b):
-        total += (cr[y, x] - 128.0) / max(value[y, x], 1.0)
-    return total / max(b - a, 1)
-
-
-@nb.njit(**INNER)
-def _saturation(rgb: np.ndarray, x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
-    """HSV saturation (0..1) of the rectangle (x0, y0, x1, y1) of ``rgb`` (H, W, 3) uint8, (y1 - y0, x1 - x0)."""
-    out = np.zeros((max(y1 - y0, 0), max(x1 - x0, 0)), np.float32)
-    for y in range(y0, y1):
-        for x in range(x0, x1):
-            r, g, b = np.int64(rgb[y, x, 0]), np.int64(rgb[y, x, 1]), np.int64(rgb[y, x, 2])
-            hi = max(r, g, b)
-            out[y - y0, x - x0] = (hi - min(r, g, b)) / hi if hi > 0 else 0.0
-    return out
-
-
-@nb.njit(**INNER)
-def _teeth_end(column: np.ndarray, sat: np.ndarray, start: int, step: int, level: float, sat_max: float, gap: int,
-               most: int, split: int) -> int:
-    """The last pixel of a run of teeth from ``start`` going ``step`` (-1 up, 1 down): pixels brighter than
-    ``level`` and less saturated than ``sat_max`` (``column`` V, ``sat`` saturation), starting within ``gap``
-    pixels (the blob's blurred edge), broken nowhere by more than ``split`` other pixels (the line between the
-    upper and the lower teeth), ended within ``most`` pixels by another pixel (the lip) inside the column;
-    -1 if there is no such run."""
-    y = start
-    for _ in range(gap):
-        if 0 <= y < len(column) and not (column[y] > level and sat[y] < sat_max):
-            y += step
-    if not 0 <= y < len(column) or not (column[y] > level and sat[y] < sat_max):
-        return -1
-    n = 0
-    last = -1
-    miss = 0
-    while 0 <= y < len(column) and n <= most:
-        if column[y] > level and sat[y] < sat_max:
-            last = y
-            miss = 0
-        else:
-            miss += 1
-            if miss > split:
-                break
-        y += step
-        n += 1
-    if last < 0 or n > most or not 0 <= y < len(column):
-        return -1
-    return last
 
 
 @nb.njit(**INNER)
@@ -394,7 +199,7 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, rgb: np.ndarray, layout: np
     cheeks = np.empty(2)
     for i in range(2):
         bx0, by0, bx1, by1 = boxes[5 + i]
-        cs = _saturation(rgb, bx0, by0, bx1, by1)
+        cs = saturation(rgb, bx0, by0, bx1, by1)
         cheeks[i] = median(cs.ravel()) if cs.size else 0.0
     sat_max = TEETH_SATURATION * median(cheeks)
     # Hair above and below the lips (less red than the cheeks, the lips redder) is left out of the blob.
@@ -405,8 +210,8 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, rgb: np.ndarray, layout: np
         if hair_top[x] or beard[x]:
             mask[:int(top[x]), x] = 0
             mask[int(bottom[x]):, x] = 0
-    itop, ibot, ltop, lit = _opening(mask, cols, top, bottom, value[y0:y1, x0:x1],
-                                     _saturation(rgb, x0, y0, x1, y1), skin, sat_max, cy - y0, unit, cr, skin_cr)
+    itop, ibot, ltop, lit = mouth_opening(mask, cols, top, bottom, value[y0:y1, x0:x1],
+                                     saturation(rgb, x0, y0, x1, y1), skin, sat_max, cy - y0, unit, cr, skin_cr)
     hair = (ltop > top) | hair_top
     top = ltop
     if hair.sum() >= MOUTH_MIN_COLUMNS:
