@@ -573,3 +573,29 @@ def test_thin_dark_band_under_the_upper_lip_starts_the_opening():
     out = outline_features(C, raw=np.zeros((h, w), np.float32), value=value, layout=layout, boxes=boxes,
                            blob_params=params, unit=px, mouth_reach=GENERIC_MOUTH_REACH, rgb=rgb)
     assert abs(_mid(out[ui])[1] - band) < 1.5, (_mid(out[ui])[1], band, cavity)
+
+
+@pytest.mark.parametrize("share", [0.3, 1.0])
+def test_lower_lid_off_a_lash_line_alone(share):
+    """Each eye's blob drawn from the layout's upper lid down ``share`` of the layout's eye height, 3 px below
+    its lower lid when ``share`` is 1: a full eye moves the lower lid onto the blob's bottom; a blob
+    under THIN_EYE of the height is the lash line alone, and the lower lid stays the layout's."""
+    from facepuppet.capture.color.rules.eyes import THIN_EYE
+
+    layout, boxes, params, (h, w), px = _scene()
+    C = np.zeros((h, w), np.float32)
+    lows = []
+    for up, lo in (("eye_right_upper", "eye_right_lower"), ("eye_left_upper", "eye_left_lower")):
+        u, lo_ = CURVE_NAMES.index(up), CURVE_NAMES.index(lo)
+        xa, xb = int(layout[u, :, 0].min()) + 2, int(layout[u, :, 0].max()) - 2
+        ya, yb = _mid(layout[u])[1], _mid(layout[lo_])[1]
+        bottom = int(round(yb + 3)) if share == 1.0 else int(round(ya + share * (yb - ya)))
+        C[int(round(ya)):bottom, xa:xb] = 1.0
+        lows.append((lo_, bottom))
+    out = outline_features(C, raw=np.zeros((h, w), np.float32), value=np.full((h, w), 200, np.uint8), layout=layout,
+                           boxes=boxes, blob_params=params, unit=px, mouth_reach=GENERIC_MOUTH_REACH)
+    for lo_, bottom in lows:
+        if share < THIN_EYE:
+            assert _mid(out[lo_])[1] == pytest.approx(_mid(layout[lo_])[1], abs=1e-9)
+        else:
+            assert abs(_mid(out[lo_])[1] - bottom) < 1.0, (_mid(out[lo_])[1], bottom)

@@ -28,7 +28,14 @@ UPPER_LID_UP = 0.1      # face units   farthest the upper lid's middle moves up 
 UPPER_LID_DOWN = 0.2    # face units   farthest the upper lid's middle moves down (a blink) from the layout's
 LID_GAP = 0.02          # face units   least gap the upper lid keeps above the lower one
 LASH_LEVEL = 0.5        # C            least contrast C of the lash line's pixels
+THIN_EYE = 0.5         # fraction     of the layout's eye height under which the blob is the lash line alone
 LASH_MAX = 0.1          # face units   longest bright run from the blob's top that is lash line, not iris
+
+
+@nb.njit(**INNER)
+def _mid(ctrl: np.ndarray) -> float:
+    """y of a curve's middle, B(1/2)."""
+    return 0.125 * (ctrl[0, 1] + ctrl[3, 1]) + 0.375 * (ctrl[1, 1] + ctrl[2, 1])
 
 
 @nb.njit(**INNER)
@@ -61,6 +68,9 @@ def eye_outlines(C: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: np.n
                  unit: float) -> None:
     """Both eyes' lids (§3.2) written into ``out`` (C, 4, 2): the lower lid onto the eye blob's bottom edge, the
     upper lid onto the lower edge of the lash line at its top, each by one shift of its middle control points.
+    A blob whose median height over its columns is under :data:`THIN_EYE` of the layout's eye height (upper to
+    lower lid) is the lash line alone (a closing eye, or an eye whose white and iris are no darker than the
+    skin, as on a dark complexion): its bottom is not the lower lid, which stays the layout's.
 
     ``C``: (H, W) float32 contrast C; ``layout``: (C, 4, 2) the layout placed on the crop; ``boxes``: the
     rectangles in :data:`~.outline.BOX_NAMES` order (the eyes are rows 0 and 1); ``params``: the eye blob's
@@ -77,7 +87,9 @@ def eye_outlines(C: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: np.n
         if not found:
             continue
         ok, y = sample_profile(out[lo], cols, bottom + y0, x0)
-        if ok:
+        thick = median((bottom - top)[cols].astype(np.float64)) if cols.any() else 0.0
+        height = _mid(layout[lo]) - _mid(layout[up])
+        if ok and thick >= THIN_EYE * height:
             d = min(max(mid_shift(out[lo], y), -LOWER_LID_STEP * unit), LOWER_LID_STEP * unit)
             out[lo, 1, 1] += d
             out[lo, 2, 1] += d
