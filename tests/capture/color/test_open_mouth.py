@@ -78,9 +78,10 @@ def test_lips_of_open_mouths_near_mediapipes(open_clip):
     opened = np.flatnonzero(jaw > OPEN_SCORE)
     assert len(opened) >= 10 and all(got[k].valid for k in opened)
     nme = np.stack([lip_nme(got[k].curves, ref[k]) for k in opened]).mean(axis=0)
-    # Measured (outer upper, outer lower, inner upper, inner lower): a 0.024 0.035 0.016 0.018 on 28 frames,
-    # c 0.030 0.040 0.030 0.062 on 39 (c's jaw drops to the crop's lower edge: the inner lower lip stops short).
-    bars = {"performer_a": (0.032, 0.045, 0.025, 0.033), "performer_c": (0.035, 0.05, 0.035, 0.095)}[name]
+    # Measured (outer upper, outer lower, inner upper, inner lower): a 0.023 0.031 0.019 0.014 on 28 frames,
+    # c 0.029 0.026 0.029 0.028 on 39 (c's jaw drops near the crop's lower edge, where the mouth's rectangle
+    # ends: a rectangle ending short of it stops the lower lips at the lower teeth).
+    bars = {"performer_a": (0.032, 0.045, 0.025, 0.033), "performer_c": (0.035, 0.035, 0.035, 0.04)}[name]
     assert np.all(nme < bars), dict(zip(LIPS, nme.round(4), strict=True))
 
 
@@ -171,7 +172,6 @@ def test_moustache_is_not_taken_for_the_lips(open_clip):
     assert np.all(got < base + 0.03), dict(zip(LIPS, (got - base).round(4), strict=True))
 
 
-
 def test_inner_lower_lip_under_a_tongue(assets, face_landmarker):
     """performer_b's mouth open with the tongue showing (frames 300-500, every 2nd; most of them open): the
     tongue, lip-coloured, fills the opening under a thin dark band, and the inner lower lip lies on the lower
@@ -193,4 +193,4 @@ def test_inner_lower_lip_under_a_tongue(assets, face_landmarker):
     # Measured (outer upper, outer lower, inner upper, inner lower): 0.050 0.037 0.045 0.041; with the inner
     # lower lip left on the tongue's top and the dark band under the upper lip taken for a moustache, 0.052
     # 0.038 0.051 0.059.
-    assert np.all(nme < (0.056, 0.042, 0.049, 0.048)), dict(zip(LIPS, nme.round(4), strict=True))
+    assert np.all(nme < (0.054, 0.040, 0.048, 0.046)), dict(zip(LIPS, nme.round(4), strict=True))

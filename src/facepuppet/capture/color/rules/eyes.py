@@ -11,7 +11,7 @@ import numpy as np
 
 from facepuppet._util.jit import INNER, KERNEL
 from facepuppet.capture.color.blobs import blob_kernel
-from facepuppet.capture.color.rules.kernels import MIN_COLUMNS, median, mid_shift, sample_profile
+from facepuppet.capture.color.rules.kernels import MIN_COLUMNS, median, mid_shift, mid_y, sample_profile
 from facepuppet.capture.curves import CURVE_NAMES
 
 __all__ = ["eye_outlines"]
@@ -28,14 +28,8 @@ UPPER_LID_UP = 0.1      # face units   farthest the upper lid's middle moves up 
 UPPER_LID_DOWN = 0.2    # face units   farthest the upper lid's middle moves down (a blink) from the layout's
 LID_GAP = 0.02          # face units   least gap the upper lid keeps above the lower one
 LASH_LEVEL = 0.5        # C            least contrast C of the lash line's pixels
-THIN_EYE = 0.5         # fraction     of the layout's eye height under which the blob is the lash line alone
+THIN_EYE = 0.5          # fraction     of the layout's eye height under which the blob is the lash line alone
 LASH_MAX = 0.1          # face units   longest bright run from the blob's top that is lash line, not iris
-
-
-@nb.njit(**INNER)
-def _mid(ctrl: np.ndarray) -> float:
-    """y of a curve's middle, B(1/2)."""
-    return 0.125 * (ctrl[0, 1] + ctrl[3, 1]) + 0.375 * (ctrl[1, 1] + ctrl[2, 1])
 
 
 @nb.njit(**INNER)
@@ -88,7 +82,7 @@ def eye_outlines(C: np.ndarray, layout: np.ndarray, out: np.ndarray, boxes: np.n
             continue
         ok, y = sample_profile(out[lo], cols, bottom + y0, x0)
         thick = median((bottom - top)[cols].astype(np.float64)) if cols.any() else 0.0
-        height = _mid(layout[lo]) - _mid(layout[up])
+        height = mid_y(layout[lo]) - mid_y(layout[up])
         if ok and thick >= THIN_EYE * height:
             d = min(max(mid_shift(out[lo], y), -LOWER_LID_STEP * unit), LOWER_LID_STEP * unit)
             out[lo, 1, 1] += d

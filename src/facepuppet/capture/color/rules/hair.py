@@ -31,13 +31,20 @@ import numpy as np
 
 from facepuppet._util.jit import INNER
 
-__all__ = ["HAIR_CR", "HAIR_LIP", "HAIR_LINE", "BEARD_LINE", "red_chroma", "hair_trim"]
+__all__ = ["HAIR_CR", "HAIR_LIP", "HAIR_LINE", "BEARD_LINE", "GREY_CR", "is_grey", "red_chroma", "hair_trim"]
 
 # Tuning constants   unit          what it does
 HAIR_CR = 8.0        # Cr levels     how much less red than the cheeks a pixel of hair (or shade) at the edge is
 HAIR_LIP = 0.04      # face units    least run of lip (as red as the cheeks or redder) next to the hair
 HAIR_LINE = 0.15     # face units    how far below the layout's lips' line a moustache may end
 BEARD_LINE = 0.08    # face units    least depth under the layout's lips' line of a beard's start (the lower lip's end)
+GREY_CR = 8.0        # Cr levels     footage whose cheeks are less red than this (Cr - 128) is grey: no colour to read
+
+
+@nb.njit(**INNER)
+def is_grey(skin_cr: float) -> bool:
+    """Whether footage whose cheeks' median Cr is ``skin_cr`` (8-bit YCrCb) is grey (monochrome, infrared)."""
+    return skin_cr - 128.0 < GREY_CR
 
 
 @nb.njit(**INNER)

@@ -16,9 +16,9 @@ import numpy as np
 from facepuppet._util.jit import INNER
 from facepuppet.capture.curves import bernstein
 
-__all__ = ["SAMPLES", "BASIS", "MID_WEIGHT", "CENTRAL_WEIGHT", "CENTRAL", "MIN_COLUMNS", "along", "select_kth",
-           "median", "quantile", "quantile_pair", "interp", "sort_order", "mid_shift", "sample_profile", "line_fit",
-           "top_of_boxes", "median_of_boxes"]
+__all__ = ["SAMPLES", "BASIS", "MID_WEIGHT", "CENTRAL_WEIGHT", "CENTRAL", "MIN_COLUMNS", "MID_SHARE", "along",
+           "select_kth", "median", "quantile", "quantile_pair", "interp", "sort_order", "mid_y", "mid_shift",
+           "sample_profile", "line_fit", "top_of_boxes", "median_of_boxes"]
 
 #: Boundary samples per curve, K.
 SAMPLES = 12
@@ -32,6 +32,14 @@ CENTRAL_WEIGHT = 0.6
 CENTRAL = np.flatnonzero(MID_WEIGHT >= CENTRAL_WEIGHT)
 #: Fewest rectangle columns holding a blob for its profile to be read (:func:`sample_profile`).
 MIN_COLUMNS = 3
+#: How far a curve's middle B(1/2) moves when both middle control points move by one: 3/8 + 3/8.
+MID_SHARE = 0.75
+
+
+@nb.njit(**INNER)
+def mid_y(ctrl: np.ndarray) -> float:
+    """y of a curve's middle, B(1/2), of its control points ``ctrl`` (4, 2)."""
+    return 0.125 * (ctrl[0, 1] + ctrl[3, 1]) + 0.375 * (ctrl[1, 1] + ctrl[2, 1])
 
 
 @nb.njit(**INNER)

@@ -18,8 +18,8 @@ import numpy as np
 from facepuppet._util.jit import INNER, KERNEL
 from facepuppet.capture.color.blobs import blob_kernel
 from facepuppet.capture.color.eye_anchors import skin_reference
-from facepuppet.capture.color.rules.hair import HAIR_CR, hair_trim, red_chroma
-from facepuppet.capture.color.rules.kernels import median, median_of_boxes, mid_shift, sample_profile
+from facepuppet.capture.color.rules.hair import hair_trim, is_grey, red_chroma
+from facepuppet.capture.color.rules.kernels import MID_SHARE, median, median_of_boxes, mid_shift, mid_y, sample_profile
 from facepuppet.capture.color.rules.opening import OPENING_MIN_WIDTH, TEETH_SATURATION, mouth_opening, saturation
 from facepuppet.capture.curves import CURVE_NAMES
 
@@ -153,12 +153,6 @@ def _corner_row(value: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: np
     return _darkest_row(value, cols, top, bottom, max(end - 2, 0), end + 1)
 
 
-@nb.njit(**INNER)
-def _mid_y(ctrl: np.ndarray) -> float:
-    """y of a curve's middle, B(1/2)."""
-    return 0.125 * (ctrl[0, 1] + ctrl[3, 1]) + 0.375 * (ctrl[1, 1] + ctrl[2, 1])
-
-
 @nb.njit(**KERNEL)
 def mouth_outlines(C: np.ndarray, value: np.ndarray, rgb: np.ndarray, layout: np.ndarray, offset: np.ndarray,
                    out: np.ndarray, boxes: np.ndarray, params: np.ndarray, unit: float, reach: float) -> None:
@@ -229,7 +223,7 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, rgb: np.ndarray, layout: np
             n_top += 1
     dy = 0.0
     if n_top and spans:
-        dy = min(max(median(tops[:n_top]) - _mid_y(lay[uo]), -MOUTH_FOLLOW * unit), MOUTH_FOLLOW * unit)
+        dy = min(max(median(tops[:n_top]) - mid_y(lay[uo]), -MOUTH_FOLLOW * unit), MOUTH_FOLLOW * unit)
     b = reach * unit
     # Sideways too (the mouth slides across the face frame when the head turns): the corners' bounds follow
     # the blob's middle.
@@ -284,20 +278,20 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, rgb: np.ndarray, layout: np
     # a tongue or lower teeth that are not dark fill the opening under its dark part, and the inner lower lip
     # lies that far above the outer one. Its lips keep OPEN_THICKNESS of the layout's: where the blob is the
     # dark opening itself (lips paler than the opening in C), the outer lips lie beyond the inner ones.
-    height = _mid_y(out[lo]) - _mid_y(out[uo])
-    grey = skin_cr - 128.0 < HAIR_CR
-    if _mid_y(out[li]) - _mid_y(out[ui]) > OPENING_MIN_WIDTH * unit or \
-            height > OPEN_HEIGHT * (_mid_y(lay[lo]) - _mid_y(lay[uo])):
-        extra = _mid_y(out[lo]) - _mid_y(out[li]) - LOWER_THICKNESS * (_mid_y(lay[lo]) - _mid_y(lay[li]))
-        tu = OPEN_THICKNESS * (_mid_y(lay[ui]) - _mid_y(lay[uo]))
-        tl = OPEN_THICKNESS * (_mid_y(lay[lo]) - _mid_y(lay[li]))
+    height = mid_y(out[lo]) - mid_y(out[uo])
+    grey = is_grey(skin_cr)
+    if mid_y(out[li]) - mid_y(out[ui]) > OPENING_MIN_WIDTH * unit or \
+            height > OPEN_HEIGHT * (mid_y(lay[lo]) - mid_y(lay[uo])):
+        extra = mid_y(out[lo]) - mid_y(out[li]) - LOWER_THICKNESS * (mid_y(lay[lo]) - mid_y(lay[li]))
+        tu = OPEN_THICKNESS * (mid_y(lay[ui]) - mid_y(lay[uo]))
+        tl = OPEN_THICKNESS * (mid_y(lay[lo]) - mid_y(lay[li]))
         for j in (1, 2):
             if extra > 0 and not grey:
-                out[li, j, 1] += extra / 0.75
-        du = _mid_y(out[ui]) - tu - _mid_y(out[uo])
-        dl = _mid_y(out[li]) + tl - _mid_y(out[lo])
+                out[li, j, 1] += extra / MID_SHARE
+        du = mid_y(out[ui]) - tu - mid_y(out[uo])
+        dl = mid_y(out[li]) + tl - mid_y(out[lo])
         for j in (1, 2):
             if du < 0:
-                out[uo, j, 1] += du / 0.75
+                out[uo, j, 1] += du / MID_SHARE
             if dl > 0:
-                out[lo, j, 1] += dl / 0.75
+                out[lo, j, 1] += dl / MID_SHARE

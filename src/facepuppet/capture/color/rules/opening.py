@@ -3,7 +3,8 @@
 The opening is what lies between the inner lips: the mouth's dark inside, teeth, and pixels the lip blob leaves
 out between its top and bottom; a tongue the colour of the lips is not told from them here (the lips' thickness
 bounds it, :mod:`.mouth`). Hair over the upper lip is as dark as the opening: a dark run at the blob's top with
-lip below it is hair when it is no redder for its brightness than the cheeks (a mouth's dark inside is red).
+lip below it is hair when it is no redder for its brightness than :data:`HAIR_REDNESS` times the cheeks (a
+mouth's dark inside is red; on grey footage the brightness alone decides).
 
 Conventions: rectangle pixels (the mouth rectangle's), x right, y down; ``unit`` crop pixels per face unit;
 ``value`` the HSV value V (0..255), saturation 0..1, Cr as OpenCV's 8-bit YCrCb.
@@ -16,7 +17,7 @@ import numpy as np
 
 from facepuppet._util.jit import INNER
 from facepuppet.capture.color.blobs import label8, open_mask
-from facepuppet.capture.color.rules.hair import HAIR_CR
+from facepuppet.capture.color.rules.hair import is_grey
 from facepuppet.capture.color.rules.kernels import quantile
 
 __all__ = ["OPENING_MIN_WIDTH", "TEETH_SATURATION", "mouth_opening", "saturation", "teeth_end", "redness"]
@@ -48,8 +49,8 @@ def mouth_opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: n
 
     ``value`` is the HSV value V (0..255) of the rectangle, ``sat`` its saturation (0..1), ``cr`` its Cr
     (:func:`~.hair.red_chroma`), ``skin`` and ``skin_cr`` the cheeks' median V and Cr, ``line`` the y of the
-    layout's line between the lips (rectangle pixels); footage whose cheeks are within :data:`~.hair.HAIR_CR`
-    of grey is taken for grey. The opening is dark
+    layout's line between the lips (rectangle pixels); footage whose cheeks are grey (:func:`~.hair.is_grey`)
+    has no colour to read. The opening is dark
     (below :data:`DARK_FRACTION` of the lips' brightness, or of the skin's if lower), left out of the lip blob
     between its top and bottom, or teeth just beyond the blob (brighter than :data:`TEETH_LEVEL` of the skin
     and less saturated than ``sat_max``); its largest 8-connected part counts if it is big and wide enough,
@@ -57,7 +58,7 @@ def mouth_opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: n
     upper lip too thin for the morphology, above a tongue).
     """
     h, w = mask.shape
-    grey = skin_cr - 128.0 < HAIR_CR
+    grey = is_grey(skin_cr)
     skin_red = (skin_cr - 128.0) / max(skin, 1.0)
     lips = np.empty(h * w)
     n = 0
@@ -100,8 +101,8 @@ def mouth_opening(mask: np.ndarray, cols: np.ndarray, top: np.ndarray, bottom: n
             y += 1
         # (lip below the dark run down to the blob's bottom: a closed mouth under hair if the run ends above
         # where the layout puts the lips' line; else the lips may be pale and the run the opening). Hair is no
-        # redder for its brightness than HAIR_REDNESS times the cheeks; a mouth's dark inside above a tongue is
-        # (on grey footage the value alone decides).
+        # redder for its brightness than HAIR_REDNESS times the cheeks, which a mouth's dark inside above a
+        # tongue is (on grey footage the value alone decides).
         below = y < bottom[x] - 1 or end <= line + HAIR_SLACK * unit
         hairy = grey or redness(cr, value, x, start, end) <= HAIR_REDNESS * skin_red
         if end - start >= hair_min and y - end >= hair_min and below and hairy and \
