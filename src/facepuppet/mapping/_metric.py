@@ -1,12 +1,12 @@
 """The nuisance metric: motion of the feature points that is no expression counts less (``nuisance`` option).
 
 A tracker's feature points move even when the face does not: the head turns and the pose removes it only
-approximately (the colour tracker holds yaw and pitch at zero, a landmark model's depth is a guess), the
-face frame slips, the light changes. Frames in which the performer keeps a neutral face while the head moves
-show, point by point, how: with their displacement vectors ``n_k`` from the neutral face (divided by the
-``point_scale`` like every other), the nuisance covariance is ``Σ = (1/K) Σ_k n_k n_kᵀ``, with eigenvalues
-``λ_j`` and eigenvectors ``u_j``. Every displacement vector, the examples' (Eq. 5) and each frame's (Eq. 13),
-is multiplied by
+approximately (the colour tracker's yaw and pitch are read off the nose's tip or the crop's look, a landmark
+model's depth is a guess), the face frame slips, the light changes. Frames in which the performer keeps a
+neutral face while the head moves show, point by point, how: with their displacement vectors ``n_k`` from the
+neutral face (divided by the ``point_scale`` like every other), the nuisance covariance is
+``Σ = (1/K) Σ_k n_k n_kᵀ``, with eigenvalues ``λ_j`` and eigenvectors ``u_j``. Every displacement vector, the
+examples' (Eq. 5) and each frame's (Eq. 13), is multiplied by
 
     T = Σ_j √(f / (λ_j + f)) u_j u_jᵀ,   f = floor · max_j λ_j,
 

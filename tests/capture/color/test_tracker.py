@@ -267,8 +267,8 @@ def test_head_turns_are_not_reported_the_wrong_way_round():
     """The colour tracker's stable landmarks are placed by its face frame (a similarity): they show the head's
     roll but not a turn (a free solve of them turned the head towards the camera, against the true turn). On
     the digital performer turning and tilting its head, the built-in profile's yaw (measured on the nose,
-    :mod:`~facepuppet.capture.color.nose_turn`) follows the true one the right way round, the pitch stays at
-    zero, and the roll follows the true one."""
+    :mod:`~facepuppet.capture.color.nose_turn`) follows the true one the right way round, no nod is read from
+    the turn, and the roll follows the true one."""
     from facepuppet.capture.pose import HeadPose, default_camera
     from facepuppet.demo.performer import head_pose, render_performer
     from facepuppet.demo.script import KEY_NAMES
@@ -288,7 +288,7 @@ def test_head_turns_are_not_reported_the_wrong_way_round():
         true.append(head_pose(m, size).angles())
     angles, true = np.degrees(angles), np.degrees(true)
     assert np.corrcoef(angles[:, 0], true[:, 0])[0, 1] > 0.8
-    assert np.abs(angles[:, 1]).max() < 1e-6
+    assert angles[:, 1].std() < 0.6
     assert np.corrcoef(angles[:, 2], true[:, 2])[0, 1] > 0.9
     assert np.abs(angles[:, 2] - true[:, 2]).max() < 3.0
 

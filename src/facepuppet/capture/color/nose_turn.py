@@ -1,31 +1,33 @@
-"""The head's yaw for the built-in profile, measured on the frame: the nose's axis of mirror symmetry against the eyes.
+"""The head's yaw and pitch for the built-in profile, measured on the frame: the nose's tip against the eyes.
 
 The colour tracker's face frame is an in-plane similarity on the eye centres (its roll, size and place); a
-trained profile reads the turn with its learnt model (:mod:`.head_turn`). Without one, the yaw is measured:
+trained profile reads the turn with its learnt model (:mod:`.head_turn`). Without one, the turn is measured on
+the nose's tip, the point of the face that stands farthest in front of the eyes and moves least with the
+expression (the lids, brows and lips move around it):
 
-- **The nose's axis.** The nose is a mirror-symmetric ridge standing in front of the eyes. Seen along the line
-  of sight under weak perspective, a point ``z`` cm proud of the eye centres moves ``z sin(yaw)`` sideways
-  against them while the eye distance ``D`` shrinks only as ``cos(yaw)``; so in face units (the eye distance)
-  the nose's axis of symmetry lies ``k sin(yaw)`` from the eyes' midpoint, with ``k = z / D``
-  (:data:`NOSE_DEPTH`). The axis is found in :data:`NOSE_REGION` of the frame (resampled upright in the face
-  frame, :data:`SAMPLES_PER_UNIT`) as the vertical line about which the region's detail matches its own mirror
-  image best (normalised correlation over :data:`MIRROR_HALF` either side, sub-sample by a parabola through
-  the best three), within :data:`SEARCH` of the midpoint. Where the match has a second peak nearly as high
-  (within :data:`PEAK_MARGIN`; under a turn, the line between the nose's far side and the cheek can mirror as
-  well as the nose), the frame gives no reading: the last one is held. The detail is the grey lightly blurred
-  less its blur over the wider of :data:`DETAIL_SIGMA`: the nostrils, the tip's highlight, the sides' edges,
-  not the light's slope across the face.
-- **The neutral.** The light and the nose are not quite symmetric, and where the eye centres are found on a
-  face differs between people: the neutral axis is the running median of the axes of the last
-  :data:`NEUTRAL_FRAMES` measured frames (the performer faces the camera most of the time; nothing later is
-  looked at).
-
-Pitch is not measured here (the nose's vertical place against the eyes moves with the lids, brows and upper
-lip as much as with a nod): it stays zero.
+- **The tip's shift.** Seen along the line of sight under weak perspective, a point ``z`` proud of the eye
+  centres moves ``z sin(yaw)`` sideways and ``z sin(pitch)`` up or down against them, while the eye distance
+  ``D`` shrinks only as ``cos(yaw)``; so in face units (the eye distance) the tip moves ``k sin(angle)`` from
+  its place in a frontal face, with ``k = z / D`` (:data:`NOSE_DEPTH` sideways, :data:`TIP_DEPTH` up and
+  down). The tip and nostrils (:data:`TIP_REGION`) are resampled upright in the face frame
+  (:data:`TIP_SAMPLES_PER_UNIT`) and their detail (the grey blurred over the finer of :data:`TIP_SIGMA` less
+  its blur over the wider: the nostrils, the tip's highlight, the sides' edges, not the light's slope across
+  the face) is found in each frame by normalised cross-correlation with a running reference, within
+  :data:`TIP_SEARCH` of its place in the first frame measured: the first frame's tip, each matched tip
+  blended in at :data:`TIP_LEARN` (the nose's look changes as the head turns and nods, and the nostrils show
+  and hide). The place is then taken from the first frame's tip where that matches within :data:`TIP_REFINE`
+  of it (the running reference cannot drift off the tip), to a fraction of a sample by a parabola through the
+  best match and its neighbours along each axis. A match under :data:`MIN_TIP_MATCH` (the tip hidden, the
+  face frame off the face) gives no reading: the last angles are held.
+- **The neutral.** The reference frame need not face the camera, noses and lights are not symmetric, where
+  the eye centres are found on a face differs between people, and the camera may look from above or below:
+  the neutral shift is, per axis, the running median of the shifts of the last :data:`NEUTRAL_FRAMES`
+  measured frames (the performer faces the camera most of the time; nothing later is looked at). The angles
+  are the turn from the performer's usual pose.
 
 Conventions: face units (the eye-centre distance) from the eyes' midpoint, x right, y down in the upright face
-frame; yaw in radians, positive as :meth:`~facepuppet.capture.pose.HeadPose.angles`' (the nose towards the
-head's +x, the performer's left: the image's right).
+frame; yaw and pitch in radians, positive as :meth:`~facepuppet.capture.pose.HeadPose.angles`' (the yaw: the
+nose towards the head's +x, the performer's left, the image's right; the pitch: the nose down).
 """
 
 from __future__ import annotations
@@ -34,35 +36,36 @@ import bisect
 import math
 
 import cv2
-import numba as nb
 import numpy as np
 
-from facepuppet._util.jit import KERNEL
-
-__all__ = ["NOSE_REGION", "SAMPLES_PER_UNIT", "DETAIL_SIGMA", "MIRROR_HALF", "SEARCH", "NOSE_DEPTH",
-           "NEUTRAL_FRAMES", "PEAK_MARGIN", "PEAK_APART", "MEASURE_EVERY", "MIN_MATCH", "LOOK_SHARE", "nose_axis",
-           "mirror_scores", "face_to_image", "NoseTurn"]
+__all__ = ["TIP_REGION", "TIP_SAMPLES_PER_UNIT", "TIP_SIGMA", "TIP_SEARCH", "MIN_TIP_MATCH", "TIP_REFINE",
+           "TIP_LEARN", "NOSE_DEPTH", "TIP_DEPTH", "NEUTRAL_FRAMES", "MEASURE_EVERY", "LOOK_SHARE", "face_to_image",
+           "tip_detail", "tip_window", "tip_shift", "NoseTurn"]
 
 # Constants                      unit                what it is
-NOSE_REGION = (-0.6, 0.35, 0.6, 0.88)  # face units  (x0, y0, x1, y1): the nose from its middle to its base
-SAMPLES_PER_UNIT = 50.0          # samples / unit    grey samples of the region per face unit
-DETAIL_SIGMA = (0.015, 0.08)     # face units        Gaussian blurs: the noise's, and the light's slope's
-MIRROR_HALF = 0.3                # face units        width compared either side of a candidate axis
-SEARCH = 0.2                     # face units        largest distance of the axis from the eyes' midpoint
-PEAK_MARGIN = 0.1                # correlation       least lead of the best peak of the match over any other
-PEAK_APART = 0.05                # face units        ... of those this far from it or farther
-#: Face units the nose's axis moves against the eye centres per unit of sin(yaw): the depth of the nose in
-#: front of the eye centres over their distance, at the scale the head pose of the landmark backend (a PnP on
-#: the generic face) gives the same turn.
+TIP_REGION = (-0.12, 0.55, 0.12, 0.82)  # face units  (x0, y0, x1, y1): the nose's tip and nostrils
+TIP_SAMPLES_PER_UNIT = 50.0      # samples / unit    grey samples of the tip's region per face unit
+TIP_SIGMA = (0.01, 0.08)         # face units        Gaussian blurs of the tip's detail: the noise's, the light's
+TIP_SEARCH = 0.3                 # face units        farthest the tip is sought from its place in the reference
+MIN_TIP_MATCH = 0.5              # correlation       least match of the tip with the references for a reading
+TIP_REFINE = 0.05                # face units        farthest the first reference's match is sought from the
+#                                                    running reference's
+TIP_LEARN = 0.1                  # fraction          share of each matched tip blended into the running reference
+#: Face units the nose's tip moves sideways against the eye centres per unit of sin(yaw): its depth in front
+#: of the eye centres over their distance, at the scale at which the landmark backend's head pose (a PnP on
+#: the generic face) reads the same turn (measured 0.7-0.95 on the shared clips).
 NOSE_DEPTH = 0.9
-NEUTRAL_FRAMES = 300             # frames            the running median of the neutral axis (10 s at 30 /s)
-MEASURE_EVERY = 3               # frames            the nose is measured on every this many frames (the last
-#                                                    reading held between: the yaw is filtered after)
-MIN_MATCH = 0.2                  # correlation       least mirror match of the best axis for a reading
+#: Face units the nose's tip moves down against the eye centres per unit of sin(pitch), at the same scale
+#: (measured 0.6-1.2 on the shared clips).
+TIP_DEPTH = 1.0
+NEUTRAL_FRAMES = 300             # frames            the running medians of the neutral shift (10 s at 30 /s)
+MEASURE_EVERY = 3                # frames            the nose is measured on every this many frames (the last
+#                                                    reading held between: the angles are filtered after)
 #: Share (yaw, pitch) of the direction of the line of sight through the head (:func:`~.head_turn.ray_angles`)
-#: added to the yaw measured against it (:func:`~.head_turn.turn_angles`): the trained model's middle share
-#: for the yaw (how much a head's place goes with its turn depends on how the performer moves); none for the
-#: pitch, which is not measured.
+#: added to the turn measured against it (:func:`~.head_turn.turn_angles`): for the yaw the trained model's
+#: middle share (how much a head's place goes with its turn depends on how the performer moves); none for the
+#: pitch (a camera above or below the face is in the neutral already: the shared clips' pitch errors grew
+#: with half of it).
 LOOK_SHARE = (0.5, 0.0)
 
 
@@ -87,135 +90,159 @@ def face_to_image(A: np.ndarray, S_px: np.ndarray, px: float, origin: tuple[floa
     return np.hstack([Ainv[:, :2] @ L, (Ainv[:, :2] @ t + Ainv[:, 2])[:, None]])
 
 
-def nose_axis(rgb: np.ndarray, M: np.ndarray) -> tuple[float, float, float] | None:
-    """The nose's axis of mirror symmetry in :data:`NOSE_REGION` (the module notes).
-
-    Parameters
-    ----------
-    rgb : (H, W, 3) uint8
-        The frame.
-    M : (2, 3)
-        Face units -> image pixels (:func:`face_to_image`).
-
-    Returns
-    -------
-    (float, float, float) or None
-        The axis's x, face units from the eyes' midpoint; its mirror match (normalised correlation); and the
-        match's lead over that of the best other peak (local maximum, the search's ends included) at least
-        :data:`PEAK_APART` away (infinite when there is none). None when the region has no detail.
-    """
-    x0, y0, x1, y1 = NOSE_REGION
-    n = SAMPLES_PER_UNIT
+def tip_detail(rgb: np.ndarray, M: np.ndarray) -> np.ndarray:
+    """The detail (float32, rows down the face, :data:`TIP_SAMPLES_PER_UNIT` per face unit) of
+    :data:`TIP_REGION` grown by :data:`TIP_SEARCH` on every side, of the frame ``rgb`` (H, W, 3) uint8 in the
+    face frame ``M`` (face units -> image pixels; samples half a step in from the region's edges, the frame's
+    edge pixels repeated beyond it)."""
+    s, n = TIP_SEARCH, TIP_SAMPLES_PER_UNIT
+    x0, y0, x1, y1 = TIP_REGION[0] - s, TIP_REGION[1] - s, TIP_REGION[2] + s, TIP_REGION[3] + s
     step = 1.0 / n
     size = (int(round((x1 - x0) * n)), int(round((y1 - y0) * n)))
     Q = np.array([[step, 0.0, x0 + 0.5 * step], [0.0, step, y0 + 0.5 * step], [0.0, 0.0, 1.0]])
     W = (np.vstack([np.asarray(M, dtype=float), [0.0, 0.0, 1.0]]) @ Q)[:2]
     g = cv2.cvtColor(cv2.warpAffine(rgb, W, size, flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
                                     borderMode=cv2.BORDER_REPLICATE), cv2.COLOR_RGB2GRAY).astype(np.float32)
-    fine, coarse = (s * n for s in DETAIL_SIGMA)
-    # the light's slope: the blur over `coarse` samples, taken on a copy a quarter the size (the same to a
-    # fraction of a grey level, at a sixteenth of the work)
-    small = cv2.resize(g, (max(size[0] // 4, 1), max(size[1] // 4, 1)), interpolation=cv2.INTER_AREA)
-    slope = cv2.resize(cv2.GaussianBlur(small, (0, 0), coarse / 4.0), size, interpolation=cv2.INTER_LINEAR)
-    detail = cv2.GaussianBlur(g, (0, 0), fine) - slope
-    half = int(round(MIRROR_HALF * n))
-    centre = int(round(-x0 * n - 0.5))                            # the sample column at x = 0
-    reach = int(round(SEARCH * n))
-    cs = np.arange(max(centre - reach, half), min(centre + reach, size[0] - half - 1) + 1)
-    score = mirror_scores(detail, cs, half)
-    if score.size == 0:
-        return None
-    j = int(np.argmax(score))
-    left, right = np.r_[-np.inf, score[:-1]], np.r_[score[1:], -np.inf]
-    others = (score >= left) & (score >= right) & (np.abs(cs - cs[j]) >= PEAK_APART * n)
-    lead = float(score[j] - score[others].max()) if others.any() else np.inf
-    off = 0.0
-    if 0 < j < len(score) - 1:
-        curv = score[j - 1] - 2.0 * score[j] + score[j + 1]
-        if curv < 0:
-            off = 0.5 * float(score[j - 1] - score[j + 1]) / float(curv)
-    return x0 + (float(cs[j]) + off + 0.5) / n, float(score[j]), lead
+    return cv2.GaussianBlur(g, (0, 0), TIP_SIGMA[0] * n) - cv2.GaussianBlur(g, (0, 0), TIP_SIGMA[1] * n)
 
 
-@nb.njit(**KERNEL)
-def mirror_scores(detail: np.ndarray, cs: np.ndarray, half: int) -> np.ndarray:
-    """Normalised correlation of the ``half`` columns left of each candidate column ``cs[k]``, mirrored, with the
-    ``half`` right of it, over all rows of ``detail`` (R, W) float32; an empty array when a side has no
-    variance at some candidate (``half <= cs[k] < W - half`` for each k)."""
-    rows = detail.shape[0]
-    count = half * rows
-    out = np.empty(len(cs))
-    for k in range(len(cs)):
-        c = cs[k]
-        cross = sl = sr = ql = qr = 0.0
-        for r in range(rows):
-            for u in range(1, half + 1):
-                a = np.float64(detail[r, c - u])
-                b = np.float64(detail[r, c + u])
-                cross += a * b
-                sl += a
-                sr += b
-                ql += a * a
-                qr += b * b
-        var_l = ql - sl * sl / count
-        var_r = qr - sr * sr / count
-        if not (var_l > 0.0 and var_r > 0.0):
-            return np.empty(0)
-        out[k] = (cross - sl * sr / count) / np.sqrt(var_l * var_r)
-    return out
+def tip_window() -> tuple[int, int, int, int]:
+    """The samples (x0, y0, x1, y1) of :data:`TIP_REGION` in :func:`tip_detail`'s array, at no shift."""
+    n, s = TIP_SAMPLES_PER_UNIT, TIP_SEARCH
+    x0, y0, x1, y1 = TIP_REGION
+    a = int(round(s * n))
+    return a, a, a + int(round((x1 - x0) * n)), a + int(round((y1 - y0) * n))
+
+
+def _peak_offset(lo: float, mid: float, hi: float) -> float:
+    """Sub-sample place (-0.5 .. 0.5) of a peak of value ``mid`` between its neighbours' ``lo`` and ``hi``
+    (the vertex of the parabola through the three)."""
+    curv = lo - 2.0 * mid + hi
+    return min(max(0.5 * (lo - hi) / curv, -0.5), 0.5) if curv < 0 else 0.0
+
+
+def _spread(a: np.ndarray) -> float:
+    """Standard deviation of the float32 array ``a`` (OpenCV's: a fraction of numpy's cost on small arrays)."""
+    return float(cv2.meanStdDev(a)[1][0, 0])
+
+
+def tip_shift(detail: np.ndarray, reference: np.ndarray, near: tuple[float, float] | None = None,
+              reach: float = TIP_SEARCH) -> tuple[float, float, float]:
+    """Where the ``reference`` tip (the :func:`tip_window` of an earlier :func:`tip_detail`) lies in this
+    frame's ``detail``: its shift (dx, dy) face units from the reference's place, and the match there
+    (normalised correlation, -1..1), the best within ``reach`` face units of the shift ``near`` (default the
+    whole search, about no shift); (0, 0, 0) where either has no detail."""
+    if not (_spread(detail) > 1e-6 and _spread(reference) > 1e-6):
+        return 0.0, 0.0, 0.0
+    n = TIP_SAMPLES_PER_UNIT
+    a, b, _, _ = tip_window()
+    th, tw = reference.shape
+    h, w = detail.shape[0] - th + 1, detail.shape[1] - tw + 1          # the places the tip may lie at
+    cx, cy = (a, b) if near is None else (a + near[0] * n, b + near[1] * n)
+    r = reach * n
+    # the places within reach, and one more on each side for the parabolas
+    x0, x1 = max(int(np.ceil(cx - r)) - 1, 0), min(int(np.floor(cx + r)) + 1, w - 1)
+    y0, y1 = max(int(np.ceil(cy - r)) - 1, 0), min(int(np.floor(cy + r)) + 1, h - 1)
+    if x1 - x0 < 2 or y1 - y0 < 2:
+        return 0.0, 0.0, 0.0
+    score = cv2.matchTemplate(detail[y0:y1 + th, x0:x1 + tw], reference, cv2.TM_CCOEFF_NORMED)
+    inner = score[1:-1, 1:-1] if near is not None else score
+    _, best, _, (x, y) = cv2.minMaxLoc(inner)
+    if near is not None:
+        x, y = x + 1, y + 1
+    sh, sw = score.shape
+    fx = _peak_offset(score[y, x - 1], best, score[y, x + 1]) if 0 < x < sw - 1 else 0.0
+    fy = _peak_offset(score[y - 1, x], best, score[y + 1, x]) if 0 < y < sh - 1 else 0.0
+    return (x + x0 + fx - a) / n, (y + y0 + fy - b) / n, float(best)
+
+
+class _RunningMedian:
+    """The median of the last ``n`` values added: a ring of them, and the same values kept in order."""
+
+    def __init__(self, n: int):
+        self._ring = np.zeros(int(n))
+        self._sorted: list[float] = []
+        self._count = 0
+
+    def reset(self) -> None:
+        self._sorted, self._count = [], 0
+
+    def add(self, x: float) -> float:
+        """Add ``x`` (the oldest value leaves a full window); the median of the window after it."""
+        n, ring = len(self._ring), self._sorted
+        if self._count >= n:
+            del ring[bisect.bisect_left(ring, float(self._ring[self._count % n]))]
+        self._ring[self._count % n] = x
+        bisect.insort(ring, x)
+        self._count += 1
+        m = len(ring)
+        return ring[m // 2] if m % 2 else 0.5 * (ring[m // 2 - 1] + ring[m // 2])
 
 
 class NoseTurn:
-    """The yaw (radians) of successive frames of one take (the module notes); the running neutral is the state.
+    """The yaw and pitch (radians) of successive frames of one take (the module notes); the tip's references
+    and the running neutrals are the state.
 
     Parameters
     ----------
     frames : int
-        Measured frames the neutral's running median spans.
+        Measured frames the neutrals' running medians span.
     every : int
         The nose is measured on every ``every``-th call, starting with the first.
     """
 
     def __init__(self, frames: int = NEUTRAL_FRAMES, every: int = MEASURE_EVERY):
         self._every, self._calls = max(int(every), 1), 0
-        self._seen = np.zeros(int(frames))        # ring buffer of the last axes
-        self._sorted: list[float] = []            # the same axes in ascending order (the median's)
-        self._count = 0
-        self._last = 0.0                          # the last yaw read, radians
+        self._neutral = (_RunningMedian(frames), _RunningMedian(frames))   # the tip's dx and dy
+        self._first: np.ndarray | None = None                               # the first frame's tip
+        self._running: np.ndarray | None = None                             # the running reference
+        self._last = np.zeros(2)                                            # (yaw, pitch) last read, radians
 
     def reset(self) -> None:
-        """Forget the neutral and the last reading (a new take, or a new face)."""
-        self._count, self._last, self._sorted, self._calls = 0, 0.0, [], 0
+        """Forget the tip's reference, the neutrals and the last reading (a new take, or a new face)."""
+        for m in self._neutral:
+            m.reset()
+        self._first = self._running = None
+        self._last, self._calls = np.zeros(2), 0
 
     @property
     def due(self) -> bool:
         """Whether the next call measures the nose (else it returns the last reading without looking)."""
         return self._calls % self._every == 0
 
-    def skip(self) -> float:
-        """A call that does not measure (:attr:`due` False): counts it and returns the last reading, radians."""
+    def skip(self) -> np.ndarray:
+        """A call that does not measure (:attr:`due` False): counts it and returns the last (yaw, pitch) (2,)
+        radians."""
         self._calls += 1
-        return self._last
+        return self._last.copy()
 
-    def __call__(self, rgb: np.ndarray, M: np.ndarray) -> float:
-        """The yaw (radians) of the frame ``rgb`` (H, W, 3) uint8 whose face frame is ``M`` (face units -> image
-        pixels, :func:`face_to_image`); the last one read (at first zero) when the nose's axis is not found
-        (no detail, a mirror match under :data:`MIN_MATCH` or a second peak within :data:`PEAK_MARGIN` of it)
-        or the call is not one that measures."""
+    def __call__(self, rgb: np.ndarray, M: np.ndarray) -> np.ndarray:
+        """The (yaw, pitch) (2,) radians of the frame ``rgb`` (H, W, 3) uint8 whose face frame is ``M`` (face
+        units -> image pixels, :func:`face_to_image`): the last ones read (at first zero) when the call is not
+        one that measures, no tip with detail has been seen yet (the first reference is the first frame's
+        tip region that has any), or the tip matches the running reference less than :data:`MIN_TIP_MATCH`."""
         if not self.due:
             return self.skip()
         self._calls += 1
-        found = nose_axis(rgb, M)
-        if found is None or found[1] < MIN_MATCH or found[2] < PEAK_MARGIN:
-            return self._last
-        x = found[0]
-        n, ring = len(self._seen), self._sorted
-        if self._count >= n:                      # the oldest axis leaves the window
-            del ring[bisect.bisect_left(ring, float(self._seen[self._count % n]))]
-        self._seen[self._count % n] = x
-        bisect.insort(ring, x)
-        self._count += 1
-        m = len(ring)
-        neutral = ring[m // 2] if m % 2 else 0.5 * (ring[m // 2 - 1] + ring[m // 2])
-        self._last = math.asin(min(max((x - neutral) / NOSE_DEPTH, -1.0), 1.0))
-        return self._last
+        detail = tip_detail(rgb, M)
+        x0, y0, x1, y1 = tip_window()
+        if self._first is None:
+            if not _spread(detail[y0:y1, x0:x1]) > 1e-6:
+                return self._last.copy()
+            self._first = np.ascontiguousarray(detail[y0:y1, x0:x1])
+            self._running = self._first.copy()
+        dx, dy, match = tip_shift(detail, self._running)
+        if match < MIN_TIP_MATCH:
+            return self._last.copy()
+        fx, fy, first = tip_shift(detail, self._first, (dx, dy), TIP_REFINE)
+        if first >= MIN_TIP_MATCH:
+            dx, dy = fx, fy
+        n = TIP_SAMPLES_PER_UNIT
+        i, j = int(round(dx * n)), int(round(dy * n))
+        seen = detail[y0 + j:y1 + j, x0 + i:x1 + i]
+        if seen.shape == self._running.shape:
+            self._running += TIP_LEARN * (seen - self._running)
+        for k, (d, depth) in enumerate(((dx, NOSE_DEPTH), (dy, TIP_DEPTH))):
+            neutral = self._neutral[k].add(d)
+            self._last[k] = math.asin(min(max((d - neutral) / depth, -1.0), 1.0))
+        return self._last.copy()

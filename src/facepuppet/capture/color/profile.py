@@ -189,7 +189,7 @@ def _head(data: dict, path) -> dict:
         raise FacepuppetError(str(e)) from e
     if not model:
         log.warning("%s: the profile's head-turn model is of an older kind and is not used (the head's yaw and "
-                    "pitch stay at zero); train the profile again to read them", path)
+                    "pitch are read off the nose, as without a profile); train the profile again to use it", path)
     return model
 
 

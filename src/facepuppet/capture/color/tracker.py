@@ -7,8 +7,8 @@ is first aligned on the acquisition's, :mod:`.follow`); Eq. 1 and the contrast C
 (:mod:`.rules`), the lips refined as snakes (Eqs. 2-4, :mod:`.snakes`) against the head's up-vector
 (:mod:`.outliner`); the eye blobs re-align the face frame for the next frame; the curves are smoothed
 (:mod:`.smoothing`) and the head pose comes from the stable curve ends (roll and position) and, with a trained
-profile, the look of the crop (yaw and pitch, :mod:`.head_turn`), with the built-in one the nose's axis against
-the eyes (yaw, :mod:`.nose_turn`).
+profile, the look of the crop (yaw and pitch, :mod:`.head_turn`), with the built-in one the nose's tip against
+the eyes (yaw and pitch, :mod:`.nose_turn`).
 
 Conventions: RGB uint8 frames; curves in image pixels (x right, y down); left and right are the performer's.
 """
@@ -49,7 +49,7 @@ from facepuppet.capture.color.head_turn import RAY_SHARE, apply_turn_model, turn
 from facepuppet.capture.color.jobs import wait_pending
 from facepuppet.capture.color.likeness import FaceTemplate
 from facepuppet.capture.color.measure import Measurement, Placement
-from facepuppet.capture.color.nose_turn import LOOK_SHARE, NoseTurn, face_to_image, nose_axis
+from facepuppet.capture.color.nose_turn import LOOK_SHARE, NoseTurn, face_to_image
 from facepuppet.capture.color.outliner import Outliner
 from facepuppet.capture.color.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
 from facepuppet.capture.color.refind import LostFace
@@ -276,7 +276,6 @@ class ColorTracker:
         C = self.intensity(crop)
         self.eye_centres(C)
         self._template.score(C, np.eye(2, 3))
-        nose_axis(crop, np.array([[w / 4.0, 0.0, w / 2.0], [0.0, w / 4.0, h / 2.0]]))
         self._skin_ok(crop)
         self._boxes_now()
         self._outliner.warmup_lids(curves, crop)
@@ -403,8 +402,8 @@ class ColorTracker:
     # -- internals -------------------------------------------------------------------------------------
     def _turn(self, timestamp_ms: int, rgb: np.ndarray) -> np.ndarray | None:
         """The head's (yaw, pitch) in radians read off the last crop by the profile's head-turn model
-        (:mod:`.head_turn`), or without one the yaw measured on the frame ``rgb`` (:mod:`.nose_turn`, pitch
-        zero), filtered over time; None before a face is measured."""
+        (:mod:`.head_turn`), or without one measured on the nose in the frame ``rgb`` (:mod:`.nose_turn`),
+        filtered over time; None before a face is measured."""
         if self.seen is None:
             return None
         crop, A, placed = self.seen
@@ -414,9 +413,9 @@ class ColorTracker:
             S = similarity_of_pairs(self._layout_px[[c0, c1], [k0, k1]], placed[[c0, c1], [k0, k1]])
             px = self.config.measure.px
             raw = (apply_turn_model(self.profile.head, crop, S, px) if self.profile.head
-                   else np.array([nose(rgb, face_to_image(A, S, px, CROP_EXTENT[:2])), 0.0]))
+                   else nose(rgb, face_to_image(A, S, px, CROP_EXTENT[:2])))
         else:
-            raw = np.array([nose.skip(), 0.0])
+            raw = nose.skip()
         fol = self._follow
         if fol.turn_ms is None:
             self._turn_filter.restart(raw)

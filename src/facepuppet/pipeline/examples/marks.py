@@ -10,8 +10,8 @@ line ``time,name`` (or ``frame,name``). ``WHEN`` is a time in seconds written ``
 Optionally, ``START-END,head-motion`` marks a span (any of the time forms above on both sides) in which the
 performer keeps a neutral face and moves the head: turns, nods, tilts, leans in and out, at the speed of a
 performance. What the tracker reports there is motion that is no expression, and the mapping discounts it
-(the mapper's ``nuisance`` option); it matters most with the colour tracker, whose head pose holds yaw and
-pitch at zero. Several spans may be marked. Example::
+(the mapper's ``nuisance`` option); it matters most with the colour tracker, whose yaw and pitch are read
+off the nose's tip or the crop's look, not solved from 3D points. Several spans may be marked. Example::
 
     # time_or_frame,name
     0.5s,neutral
