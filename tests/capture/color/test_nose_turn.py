@@ -1,11 +1,13 @@
 """The built-in profile's yaw and pitch (:mod:`facepuppet.capture.color.nose_turn`): known answers."""
 
+import cv2
 import numpy as np
 
 from facepuppet.capture.color.nose_turn import (
     MIN_TIP_MATCH,
     NOSE_DEPTH,
     TIP_DEPTH,
+    TIP_MISSES,
     NoseTurn,
     face_to_image,
     tip_detail,
@@ -88,14 +90,39 @@ def test_yaw_is_read_against_the_running_neutral():
 
 def test_the_tip_is_found_where_it_was_moved():
     """The drawn nose moved (dx, dy) face units from the reference's place is found there to a quarter of a
-    sample (0.005 face units), with a match near 1; a region without detail gives the shift 0 and match 0."""
+    sample (0.005 face units), with a match over 0.9; a region without detail gives the shift 0 and match 0."""
     M = _frame_map()
     x0, y0, x1, y1 = tip_window()
     reference = np.ascontiguousarray(tip_detail(_nose(0.0), M)[y0:y1, x0:x1])
-    for dx, dy in ((0.0, 0.0), (0.05, -0.03), (-0.11, 0.17), (0.023, 0.061)):
+    for dx, dy in ((0.0, 0.0), (0.05, -0.03), (-0.11, 0.17), (0.023, 0.061), (0.3, 0.3), (-0.3, -0.29)):
         got = tip_shift(tip_detail(_nose(dx, down=dy), M), reference)
-        assert abs(got[0] - dx) < 0.005 and abs(got[1] - dy) < 0.005 and got[2] > 0.95, (dx, dy, got)
+        assert abs(got[0] - dx) < 0.005 and abs(got[1] - dy) < 0.005 and got[2] > 0.9, (dx, dy, got)
+        # sought only near a given place (to the search's edge): found there too
+        near = tip_shift(tip_detail(_nose(dx, down=dy), M), reference, (0.9 * dx, 0.9 * dy), 0.05)
+        assert abs(near[0] - dx) < 0.005 and abs(near[1] - dy) < 0.005, (dx, dy, near)
+    # a tip 0.2 face units from where it is sought within 0.05 is not found: the best place there is worse
+    got = tip_shift(tip_detail(_nose(0.2), M), reference, (0.0, 0.0), 0.05)
+    assert abs(got[0]) <= 0.05 + 1e-9 and got[2] < 0.9, got
     assert tip_shift(tip_detail(np.full((300, 400, 3), 128, np.uint8), M), reference) == (0.0, 0.0, 0.0)
+
+
+def test_a_tip_lost_for_long_is_taken_afresh(rng):
+    """A nose read turned d (its first tip at 0), then TIP_MISSES frames of smooth texture that match no tip:
+    the angles are held meanwhile; the tip is then taken afresh, so the same nose reads no turn (its place is
+    the new reference's and the new neutral's), while a nose whose tip was not lost for long still reads d."""
+    M = _frame_map()
+    smooth = cv2.GaussianBlur(rng.integers(0, 256, (300, 400, 3), dtype=np.uint8), (0, 0), 3.0)
+    d = 0.06
+    for misses, turned in ((TIP_MISSES, False), (TIP_MISSES - 1, True)):
+        turn = NoseTurn(frames=31, every=1)
+        for _ in range(10):
+            turn(_nose(0.0), M)
+        got = turn(_nose(d), M)
+        for _ in range(misses):
+            np.testing.assert_array_equal(turn(smooth, M), got)
+        again = turn(_nose(d), M)
+        expected = np.arcsin(d / NOSE_DEPTH) if turned else 0.0
+        assert abs(again[0] - expected) < 0.01, (misses, again)
 
 
 def test_pitch_is_read_against_the_running_neutral():

@@ -10,15 +10,17 @@ expression (the lids, brows and lips move around it):
   ``D`` shrinks only as ``cos(yaw)``; so in face units (the eye distance) the tip moves ``k sin(angle)`` from
   its place in a frontal face, with ``k = z / D`` (:data:`NOSE_DEPTH` sideways, :data:`TIP_DEPTH` up and
   down). The tip and nostrils (:data:`TIP_REGION`) are resampled upright in the face frame
-  (:data:`TIP_SAMPLES_PER_UNIT`) and their detail (the grey blurred over the finer of :data:`TIP_SIGMA` less
-  its blur over the wider: the nostrils, the tip's highlight, the sides' edges, not the light's slope across
-  the face) is found in each frame by normalised cross-correlation with a running reference, within
-  :data:`TIP_SEARCH` of its place in the first frame measured: the first frame's tip, each matched tip
-  blended in at :data:`TIP_LEARN` (the nose's look changes as the head turns and nods, and the nostrils show
-  and hide). The place is then taken from the first frame's tip where that matches within :data:`TIP_REFINE`
-  of it (the running reference cannot drift off the tip), to a fraction of a sample by a parabola through the
-  best match and its neighbours along each axis. A match under :data:`MIN_TIP_MATCH` (the tip hidden, the
-  face frame off the face) gives no reading: the last angles are held.
+  (:data:`TIP_SAMPLES_PER_UNIT`; a face of many pixels to a sample is blurred first) and their detail (the
+  grey blurred over the finer of :data:`TIP_SIGMA` less its blur over the wider: the nostrils, the tip's
+  highlight, the sides' edges, not the light's slope across the face) is found in each frame by normalised
+  cross-correlation with a running reference, within :data:`TIP_SEARCH` of its place in the first frame
+  measured. The place is then taken from the first frame's tip where that matches (:data:`MIN_FIRST_MATCH`)
+  within :data:`TIP_REFINE` of it, to a fraction of a sample by a parabola through the best match and its
+  neighbours along each axis, and only such a tip is blended into the running reference (at
+  :data:`TIP_LEARN`: the nose's look changes as the head turns and nods, and the nostrils show and hide; the
+  first tip anchors it). A match with the running reference under :data:`MIN_TIP_MATCH` (the tip hidden, the
+  face frame off the face) gives no reading: the last angles are held, and after :data:`TIP_MISSES` such
+  frames in a row the tip is taken afresh from the next frame.
 - **The neutral.** The reference frame need not face the camera, noses and lights are not symmetric, where
   the eye centres are found on a face differs between people, and the camera may look from above or below:
   the neutral shift is, per axis, the running median of the shifts of the last :data:`NEUTRAL_FRAMES`
@@ -38,19 +40,22 @@ import math
 import cv2
 import numpy as np
 
-__all__ = ["TIP_REGION", "TIP_SAMPLES_PER_UNIT", "TIP_SIGMA", "TIP_SEARCH", "MIN_TIP_MATCH", "TIP_REFINE",
-           "TIP_LEARN", "NOSE_DEPTH", "TIP_DEPTH", "NEUTRAL_FRAMES", "MEASURE_EVERY", "LOOK_SHARE", "face_to_image",
-           "tip_detail", "tip_window", "tip_shift", "NoseTurn"]
+__all__ = ["TIP_REGION", "TIP_SAMPLES_PER_UNIT", "TIP_SIGMA", "TIP_SEARCH", "MIN_TIP_MATCH", "MIN_FIRST_MATCH",
+           "TIP_REFINE", "TIP_LEARN", "TIP_MISSES", "NOSE_DEPTH", "TIP_DEPTH", "NEUTRAL_FRAMES", "MEASURE_EVERY",
+           "LOOK_SHARE", "face_to_image", "tip_detail", "tip_window", "tip_shift", "NoseTurn"]
 
 # Constants                      unit                what it is
-TIP_REGION = (-0.12, 0.55, 0.12, 0.82)  # face units  (x0, y0, x1, y1): the nose's tip and nostrils
+TIP_REGION = (-0.12, 0.55, 0.12, 0.83)  # face units  (x0, y0, x1, y1): the nose's tip and nostrils
 TIP_SAMPLES_PER_UNIT = 50.0      # samples / unit    grey samples of the tip's region per face unit
 TIP_SIGMA = (0.01, 0.08)         # face units        Gaussian blurs of the tip's detail: the noise's, the light's
 TIP_SEARCH = 0.3                 # face units        farthest the tip is sought from its place in the reference
-MIN_TIP_MATCH = 0.5              # correlation       least match of the tip with the references for a reading
+MIN_TIP_MATCH = 0.7              # correlation       least match of the tip with the running reference for a reading
+MIN_FIRST_MATCH = 0.5            # correlation       least match of the first frame's tip to place the tip and learn
 TIP_REFINE = 0.05                # face units        farthest the first reference's match is sought from the
 #                                                    running reference's
 TIP_LEARN = 0.1                  # fraction          share of each matched tip blended into the running reference
+TIP_MISSES = 10                  # frames            measured frames in a row without a reading after which the
+#                                                    tip is taken afresh (references and neutrals)
 #: Face units the nose's tip moves sideways against the eye centres per unit of sin(yaw): its depth in front
 #: of the eye centres over their distance, at the scale at which the landmark backend's head pose (a PnP on
 #: the generic face) reads the same turn (measured 0.7-0.95 on the shared clips).
@@ -58,7 +63,8 @@ NOSE_DEPTH = 0.9
 #: Face units the nose's tip moves down against the eye centres per unit of sin(pitch), at the same scale
 #: (measured 0.6-1.2 on the shared clips).
 TIP_DEPTH = 1.0
-NEUTRAL_FRAMES = 300             # frames            the running medians of the neutral shift (10 s at 30 /s)
+NEUTRAL_FRAMES = 300             # frames            measured frames of the neutral shift's running medians
+#                                                    (30 s at 30 /s, measured on every third)
 MEASURE_EVERY = 3                # frames            the nose is measured on every this many frames (the last
 #                                                    reading held between: the angles are filtered after)
 #: Share (yaw, pitch) of the direction of the line of sight through the head (:func:`~.head_turn.ray_angles`)
@@ -101,6 +107,19 @@ def tip_detail(rgb: np.ndarray, M: np.ndarray) -> np.ndarray:
     size = (int(round((x1 - x0) * n)), int(round((y1 - y0) * n)))
     Q = np.array([[step, 0.0, x0 + 0.5 * step], [0.0, step, y0 + 0.5 * step], [0.0, 0.0, 1.0]])
     W = (np.vstack([np.asarray(M, dtype=float), [0.0, 0.0, 1.0]]) @ Q)[:2]
+    spacing = float(np.sqrt(abs(np.linalg.det(W[:, :2]))))          # image pixels between two samples
+    if spacing > 2.0 and np.isfinite(W).all():
+        # A face many pixels to a sample: its rectangle of the frame blurred first (half a sample), so that
+        # the samples do not alias the skin's and the nostrils' fine detail.
+        corners = W @ np.array([[0.0, size[0], 0.0, size[0]], [0.0, 0.0, size[1], size[1]], [1.0, 1.0, 1.0, 1.0]])
+        pad = int(np.ceil(1.5 * spacing)) + 1
+        h, w = rgb.shape[:2]
+        c0, r0 = max(int(corners[0].min()) - pad, 0), max(int(corners[1].min()) - pad, 0)
+        c1, r1 = min(int(corners[0].max()) + pad + 1, w), min(int(corners[1].max()) + pad + 1, h)
+        if c1 - c0 > 1 and r1 - r0 > 1:
+            rgb = cv2.GaussianBlur(rgb[r0:r1, c0:c1], (0, 0), 0.5 * spacing)
+            W = W.copy()
+            W[:, 2] -= (c0, r0)
     g = cv2.cvtColor(cv2.warpAffine(rgb, W, size, flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
                                     borderMode=cv2.BORDER_REPLICATE), cv2.COLOR_RGB2GRAY).astype(np.float32)
     return cv2.GaussianBlur(g, (0, 0), TIP_SIGMA[0] * n) - cv2.GaussianBlur(g, (0, 0), TIP_SIGMA[1] * n)
@@ -140,20 +159,20 @@ def tip_shift(detail: np.ndarray, reference: np.ndarray, near: tuple[float, floa
     h, w = detail.shape[0] - th + 1, detail.shape[1] - tw + 1          # the places the tip may lie at
     cx, cy = (a, b) if near is None else (a + near[0] * n, b + near[1] * n)
     r = reach * n
-    # the places within reach, and one more on each side for the parabolas
-    x0, x1 = max(int(np.ceil(cx - r)) - 1, 0), min(int(np.floor(cx + r)) + 1, w - 1)
-    y0, y1 = max(int(np.ceil(cy - r)) - 1, 0), min(int(np.floor(cy + r)) + 1, h - 1)
-    if x1 - x0 < 2 or y1 - y0 < 2:
+    # the places within reach (kx0..kx1, ky0..ky1), and one more on each side, where there is one, for the
+    # parabolas
+    kx0, kx1 = max(int(np.ceil(cx - r)), 0), min(int(np.floor(cx + r)), w - 1)
+    ky0, ky1 = max(int(np.ceil(cy - r)), 0), min(int(np.floor(cy + r)), h - 1)
+    if kx1 < kx0 or ky1 < ky0:
         return 0.0, 0.0, 0.0
+    x0, x1, y0, y1 = max(kx0 - 1, 0), min(kx1 + 1, w - 1), max(ky0 - 1, 0), min(ky1 + 1, h - 1)
     score = cv2.matchTemplate(detail[y0:y1 + th, x0:x1 + tw], reference, cv2.TM_CCOEFF_NORMED)
-    inner = score[1:-1, 1:-1] if near is not None else score
-    _, best, _, (x, y) = cv2.minMaxLoc(inner)
-    if near is not None:
-        x, y = x + 1, y + 1
+    _, best, _, (x, y) = cv2.minMaxLoc(score[ky0 - y0:ky1 - y0 + 1, kx0 - x0:kx1 - x0 + 1])
+    x, y = x + kx0 - x0, y + ky0 - y0
     sh, sw = score.shape
     fx = _peak_offset(score[y, x - 1], best, score[y, x + 1]) if 0 < x < sw - 1 else 0.0
     fy = _peak_offset(score[y - 1, x], best, score[y + 1, x]) if 0 < y < sh - 1 else 0.0
-    return (x + x0 + fx - a) / n, (y + y0 + fy - b) / n, float(best)
+    return float(x + x0 + fx - a) / n, float(y + y0 + fy - b) / n, float(best)
 
 
 class _RunningMedian:
@@ -197,13 +216,19 @@ class NoseTurn:
         self._first: np.ndarray | None = None                               # the first frame's tip
         self._running: np.ndarray | None = None                             # the running reference
         self._last = np.zeros(2)                                            # (yaw, pitch) last read, radians
+        self._misses = 0                                                    # measured frames in a row unread
 
     def reset(self) -> None:
-        """Forget the tip's reference, the neutrals and the last reading (a new take, or a new face)."""
+        """Forget the tip's references, the neutrals and the last reading (a new take, or a new face)."""
+        self._forget()
+        self._last, self._calls = np.zeros(2), 0
+
+    def _forget(self) -> None:
+        """Forget the tip's references and the neutrals (the tip is taken afresh from the next frame)."""
         for m in self._neutral:
             m.reset()
         self._first = self._running = None
-        self._last, self._calls = np.zeros(2), 0
+        self._misses = 0
 
     @property
     def due(self) -> bool:
@@ -220,7 +245,8 @@ class NoseTurn:
         """The (yaw, pitch) (2,) radians of the frame ``rgb`` (H, W, 3) uint8 whose face frame is ``M`` (face
         units -> image pixels, :func:`face_to_image`): the last ones read (at first zero) when the call is not
         one that measures, no tip with detail has been seen yet (the first reference is the first frame's
-        tip region that has any), or the tip matches the running reference less than :data:`MIN_TIP_MATCH`."""
+        tip region that has any), or the tip matches the running reference less than :data:`MIN_TIP_MATCH`
+        (after :data:`TIP_MISSES` such frames in a row the tip is taken afresh)."""
         if not self.due:
             return self.skip()
         self._calls += 1
@@ -233,15 +259,21 @@ class NoseTurn:
             self._running = self._first.copy()
         dx, dy, match = tip_shift(detail, self._running)
         if match < MIN_TIP_MATCH:
+            self._misses += 1
+            if self._misses >= TIP_MISSES:
+                self._forget()
             return self._last.copy()
+        self._misses = 0
         fx, fy, first = tip_shift(detail, self._first, (dx, dy), TIP_REFINE)
-        if first >= MIN_TIP_MATCH:
+        if first >= MIN_FIRST_MATCH:
+            # placed by the first frame's tip, and only then learnt from: the running reference follows the
+            # tip's look, never a place the first tip does not match
             dx, dy = fx, fy
-        n = TIP_SAMPLES_PER_UNIT
-        i, j = int(round(dx * n)), int(round(dy * n))
-        seen = detail[y0 + j:y1 + j, x0 + i:x1 + i]
-        if seen.shape == self._running.shape:
-            self._running += TIP_LEARN * (seen - self._running)
+            n = TIP_SAMPLES_PER_UNIT
+            i, j = int(round(dx * n)), int(round(dy * n))
+            seen = detail[y0 + j:y1 + j, x0 + i:x1 + i]
+            if seen.shape == self._running.shape:
+                self._running += TIP_LEARN * (seen - self._running)
         for k, (d, depth) in enumerate(((dx, NOSE_DEPTH), (dy, TIP_DEPTH))):
             neutral = self._neutral[k].add(d)
             self._last[k] = math.asin(min(max((d - neutral) / depth, -1.0), 1.0))

@@ -314,6 +314,25 @@ def test_lower_outer_lip_keeps_the_layouts_thickness():
     assert out[lo, 1, 1] > crease + 6
 
 
+def test_upper_outer_lip_keeps_the_layouts_thickness():
+    """A mouth blob whose upper lip is pale at the top (the blob starts 3 px above the crease): the upper outer
+    lip stays at least the layout's lip thickness above the upper inner one instead of on the blob's top."""
+    layout, boxes, params, (h, w), px = _scene()
+    uo, ui = CURVE_NAMES.index("lip_upper_outer"), CURVE_NAMES.index("lip_upper_inner")
+    lo = CURVE_NAMES.index("lip_lower_outer")
+    C = np.zeros((h, w), np.float32)
+    xl, xr = int(layout[uo, 0, 0]), int(layout[uo, 3, 0])
+    crease = int(round(_mid(layout[ui])[1]))
+    cv2.rectangle(C, (xl, crease - 3), (xr, int(round(_mid(layout[lo])[1]))), 1.0, -1)
+    value = np.full((h, w), 200, np.uint8)
+    value[crease, xl:xr] = 60                                          # the crease between the lips
+    out = outline_features(C, raw=np.zeros((h, w), np.float32), value=value, layout=layout, boxes=boxes,
+                           blob_params=params, unit=px, mouth_reach=GENERIC_MOUTH_REACH)
+    for j in (1, 2):
+        assert out[ui, j, 1] - out[uo, j, 1] >= layout[ui, j, 1] - layout[uo, j, 1] - 1e-9
+    assert _mid(out[uo])[1] < crease - 3                               # above the blob's top
+
+
 def test_closed_columns_is_opencvs_vertical_closing_and_median_level_numpys():
     from facepuppet.capture.color.rules.brows import closed_columns, median_level
 
@@ -412,8 +431,7 @@ def _open_mouth_scene(glossy: bool):
 
 def test_open_mouth_with_pale_lips_keeps_the_lips_outside_the_opening():
     """Only the dark opening is high in C (pale lips): the inner lips trace the opening's top and bottom, and
-    the outer lips lie the lips' thickness (OPEN_THICKNESS of the layout's at least) beyond them, not on it."""
-    from facepuppet.capture.color.rules.mouth import OPEN_THICKNESS
+    the outer lips lie the lips' thickness (the layout's at least) beyond them, not on it."""
     from facepuppet.capture.curves import CURVE_NAMES
 
     out, layout, top, bottom, _, px = _open_mouth_scene(glossy=False)
@@ -422,8 +440,8 @@ def test_open_mouth_with_pale_lips_keeps_the_lips_outside_the_opening():
     assert abs(_mid(out[ui])[1] - top) < 2.0 and abs(_mid(out[li])[1] - bottom) < 2.0
     thick_u = _mid(layout[ui])[1] - _mid(layout[uo])[1]
     thick_l = _mid(layout[lo])[1] - _mid(layout[li])[1]
-    assert _mid(out[ui])[1] - _mid(out[uo])[1] >= OPEN_THICKNESS * thick_u - 1e-6
-    assert _mid(out[lo])[1] - _mid(out[li])[1] >= OPEN_THICKNESS * thick_l - 1e-6
+    assert _mid(out[ui])[1] - _mid(out[uo])[1] >= thick_u - 1e-6
+    assert _mid(out[lo])[1] - _mid(out[li])[1] >= thick_l - 1e-6
 
 
 def test_glossy_lower_lip_is_not_cut_off_the_mouth():

@@ -2,9 +2,9 @@
 
 Corners and outer lips come from the blob's outline, inner lips from the mouth opening inside it (dark pixels,
 or pixels the blob leaves out between its top and bottom, as teeth), or the lip crease when the mouth is closed.
-An open mouth's lips keep about their thickness: at least :data:`OPEN_THICKNESS` of the layout's (pale lips
-outside a blob that is the opening alone), the lower one at most :data:`LOWER_THICKNESS` (a tongue the colour of
-the lips filling the opening below its dark part).
+Both lips keep at least the layout's thickness (pale lips outside a blob that is the opening alone, an upper
+lip's pale top left out of it); an open mouth's lower lip at most :data:`LOWER_THICKNESS` of it (a tongue the
+colour of the lips filling the opening below its dark part).
 
 Conventions: crop pixels, x right, y down; curves (C, 4, 2) in :data:`~facepuppet.capture.curves.CURVE_NAMES`
 order; ``unit`` is crop pixels per face unit; ``value`` the HSV value V (0..255).
@@ -41,7 +41,6 @@ MOUTH_FOLLOW = 0.3         # face units    farthest the lips' and corners' bound
 FOLLOW_SPAN = 0.6          # fraction      of the layout's mouth width the blob must span for the bounds to follow it
 LIP_GAP = 0.1              # face units    gap in a column across which a lip part beyond the blob joins it
 LIP_EXTEND = 0.25          # face units    farthest a column's outer lip edge is moved out across such gaps
-OPEN_THICKNESS = 1.0       # fraction      of the layout's lip thickness an open mouth's lips keep at least
 LOWER_THICKNESS = 1.5      # fraction      of the layout's lower lip thickness an open mouth's lower lip keeps at most
 OPEN_HEIGHT = 1.3          # fraction      of the layout's mouth height (outer lips) past which the mouth is open
 CORNER_SEARCH = 0.15       # face units    farthest inside the blob's end a column crossing the lips' line is looked for
@@ -271,27 +270,19 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, rgb: np.ndarray, layout: np
         out[uo, j, 1] = min(out[uo, j, 1], out[ui, j, 1])
         out[ui, j, 1] = min(out[ui, j, 1], out[lo, j, 1])
         out[li, j, 1] = min(max(out[li, j, 1], out[ui, j, 1]), out[lo, j, 1])
-        # The lower lip keeps at least the layout's thickness (a pale lower lip leaves the blob short of it).
+        # Both lips keep at least the layout's thickness (a pale lower lip, or the upper lip's pale top, is left
+        # out of the blob).
         out[lo, j, 1] = max(out[lo, j, 1], out[li, j, 1] + lay[lo, j, 1] - lay[li, j, 1])
+        out[uo, j, 1] = min(out[uo, j, 1], out[ui, j, 1] - (lay[ui, j, 1] - lay[uo, j, 1]))
     # An open mouth (a dark gap between the inner lips, or the outer lips much farther apart than the layout's)
     # has lips of about their own thickness. Its lower lip is no thicker than LOWER_THICKNESS of the layout's:
     # a tongue or lower teeth that are not dark fill the opening under its dark part, and the inner lower lip
-    # lies that far above the outer one. Its lips keep OPEN_THICKNESS of the layout's: where the blob is the
-    # dark opening itself (lips paler than the opening in C), the outer lips lie beyond the inner ones.
+    # lies that far above the outer one.
     height = mid_y(out[lo]) - mid_y(out[uo])
     grey = is_grey(skin_cr)
     if mid_y(out[li]) - mid_y(out[ui]) > OPENING_MIN_WIDTH * unit or \
             height > OPEN_HEIGHT * (mid_y(lay[lo]) - mid_y(lay[uo])):
         extra = mid_y(out[lo]) - mid_y(out[li]) - LOWER_THICKNESS * (mid_y(lay[lo]) - mid_y(lay[li]))
-        tu = OPEN_THICKNESS * (mid_y(lay[ui]) - mid_y(lay[uo]))
-        tl = OPEN_THICKNESS * (mid_y(lay[lo]) - mid_y(lay[li]))
-        for j in (1, 2):
-            if extra > 0 and not grey:
+        if extra > 0 and not grey:
+            for j in (1, 2):
                 out[li, j, 1] += extra / MID_SHARE
-        du = mid_y(out[ui]) - tu - mid_y(out[uo])
-        dl = mid_y(out[li]) + tl - mid_y(out[lo])
-        for j in (1, 2):
-            if du < 0:
-                out[uo, j, 1] += du / MID_SHARE
-            if dl > 0:
-                out[lo, j, 1] += dl / MID_SHARE
