@@ -292,45 +292,46 @@ def test_brow_curve_tilts_with_a_slanted_brow():
         assert abs(rise - max(slope - 0.1, 0.0) * run) < 1.5, (slope, rise, run)
 
 
-def test_lower_outer_lip_keeps_the_layouts_thickness():
-    """A mouth blob whose lower lip is pale (the blob ends little below the crease): the lower outer lip stays
-    the layout's lip thickness below the lower inner one instead of on the blob's bottom."""
-    from facepuppet.capture.curves import CURVE_NAMES
-
+def _closed_mouth(top_of, crease_of, bottom_of):
+    """The rules run on a closed mouth's blob drawn on the layout: rows ``top_of(layout, px)`` to
+    ``bottom_of(layout, px, crease)`` of C lit over the mouth's width, a dark crease at row
+    ``crease_of(layout)``. Returns (out, layout, crease, top, bottom)."""
     layout, boxes, params, (h, w), px = _scene()
-    lo, li = CURVE_NAMES.index("lip_lower_outer"), CURVE_NAMES.index("lip_lower_inner")
     uo = CURVE_NAMES.index("lip_upper_outer")
-    C = np.zeros((h, w), np.float32)
     xl, xr = int(layout[uo, 0, 0]), int(layout[uo, 3, 0])
-    top, crease = int(layout[uo, 1, 1]) + 4, int(layout[li, 1, 1]) + 2
-    cv2.rectangle(C, (xl, top), (xr, crease + 2), 1.0, -1)             # upper lip and a sliver of the lower
+    crease = crease_of(layout)
+    top, bottom = top_of(layout, px, crease), bottom_of(layout, px, crease)
+    C = np.zeros((h, w), np.float32)
+    cv2.rectangle(C, (xl, top), (xr, bottom), 1.0, -1)
     value = np.full((h, w), 200, np.uint8)
     value[crease, xl:xr] = 60                                          # the crease between the lips
     out = outline_features(C, raw=np.zeros((h, w), np.float32), value=value, layout=layout, boxes=boxes,
                            blob_params=params, unit=px, mouth_reach=GENERIC_MOUTH_REACH)
+    return out, layout, crease, top, bottom
+
+
+def test_lower_outer_lip_keeps_the_layouts_thickness():
+    """A mouth blob whose lower lip is pale (the blob ends 2 px below the crease): the lower outer lip stays
+    the layout's lip thickness below the lower inner one instead of on the blob's bottom."""
+    uo, lo, li = (CURVE_NAMES.index(n) for n in ("lip_upper_outer", "lip_lower_outer", "lip_lower_inner"))
+    out, layout, crease, _, bottom = _closed_mouth(lambda lay, px, c: int(lay[uo, 1, 1]) + 4,
+                                                   lambda lay: int(lay[li, 1, 1]) + 2,
+                                                   lambda lay, px, c: c + 2)
     for j in (1, 2):
         assert out[lo, j, 1] - out[li, j, 1] >= layout[lo, j, 1] - layout[li, j, 1] - 1e-9
-    # Not the blob's bottom (which is only a few pixels below the crease).
-    assert out[lo, 1, 1] > crease + 6
+    assert out[lo, 1, 1] > bottom + 4                                  # not on the blob's bottom
 
 
 def test_upper_outer_lip_keeps_the_layouts_thickness():
     """A mouth blob whose upper lip is pale at the top (the blob starts 3 px above the crease): the upper outer
     lip stays at least the layout's lip thickness above the upper inner one instead of on the blob's top."""
-    layout, boxes, params, (h, w), px = _scene()
-    uo, ui = CURVE_NAMES.index("lip_upper_outer"), CURVE_NAMES.index("lip_upper_inner")
-    lo = CURVE_NAMES.index("lip_lower_outer")
-    C = np.zeros((h, w), np.float32)
-    xl, xr = int(layout[uo, 0, 0]), int(layout[uo, 3, 0])
-    crease = int(round(_mid(layout[ui])[1]))
-    cv2.rectangle(C, (xl, crease - 3), (xr, int(round(_mid(layout[lo])[1]))), 1.0, -1)
-    value = np.full((h, w), 200, np.uint8)
-    value[crease, xl:xr] = 60                                          # the crease between the lips
-    out = outline_features(C, raw=np.zeros((h, w), np.float32), value=value, layout=layout, boxes=boxes,
-                           blob_params=params, unit=px, mouth_reach=GENERIC_MOUTH_REACH)
+    uo, ui, lo = (CURVE_NAMES.index(n) for n in ("lip_upper_outer", "lip_upper_inner", "lip_lower_outer"))
+    out, layout, crease, top, _ = _closed_mouth(lambda lay, px, c: c - 3,
+                                                lambda lay: int(round(_mid(lay[ui])[1])),
+                                                lambda lay, px, c: int(round(_mid(lay[lo])[1])))
     for j in (1, 2):
         assert out[ui, j, 1] - out[uo, j, 1] >= layout[ui, j, 1] - layout[uo, j, 1] - 1e-9
-    assert _mid(out[uo])[1] < crease - 3                               # above the blob's top
+    assert _mid(out[uo])[1] < top                                      # above the blob's top
 
 
 def test_closed_columns_is_opencvs_vertical_closing_and_median_level_numpys():
