@@ -218,11 +218,6 @@ class NoseTurn:
         self._last = np.zeros(2)                                            # (yaw, pitch) last read, radians
         self._misses = 0                                                    # measured frames in a row unread
 
-    def reset(self) -> None:
-        """Forget the tip's references, the neutrals and the last reading (a new take, or a new face)."""
-        self._forget()
-        self._last, self._calls = np.zeros(2), 0
-
     def _forget(self) -> None:
         """Forget the tip's references and the neutrals (the tip is taken afresh from the next frame)."""
         for m in self._neutral:

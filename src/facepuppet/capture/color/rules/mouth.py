@@ -266,14 +266,12 @@ def mouth_outlines(C: np.ndarray, value: np.ndarray, rgb: np.ndarray, layout: np
                 lo_b, hi_b = lay[c, j, 1] + centre + LIP_LOW[i] * unit, lay[c, j, 1] + centre + LIP_HIGH[i] * unit
                 out[c, j, 1] = min(max(out[c, j, 1] + d, lo_b), hi_b)
     for j in (1, 2):
-        # The outer upper lip lies above the opening (the blob may be the opening alone, its lips pale).
-        out[uo, j, 1] = min(out[uo, j, 1], out[ui, j, 1])
         out[ui, j, 1] = min(out[ui, j, 1], out[lo, j, 1])
         out[li, j, 1] = min(max(out[li, j, 1], out[ui, j, 1]), out[lo, j, 1])
-        # Both lips keep at least the layout's thickness (a pale lower lip, or the upper lip's pale top, is left
-        # out of the blob).
+        # Both lips keep at least the layout's thickness beyond the inner ones (the blob may be the opening
+        # alone, its lips pale; a pale lower lip, or the upper lip's pale top, is left out of the blob).
         out[lo, j, 1] = max(out[lo, j, 1], out[li, j, 1] + lay[lo, j, 1] - lay[li, j, 1])
-        out[uo, j, 1] = min(out[uo, j, 1], out[ui, j, 1] - (lay[ui, j, 1] - lay[uo, j, 1]))
+        out[uo, j, 1] = min(out[uo, j, 1], out[ui, j, 1] - max(lay[ui, j, 1] - lay[uo, j, 1], 0.0))
     # An open mouth (a dark gap between the inner lips, or the outer lips much farther apart than the layout's)
     # has lips of about their own thickness. Its lower lip is no thicker than LOWER_THICKNESS of the layout's:
     # a tongue or lower teeth that are not dark fill the opening under its dark part, and the inner lower lip
