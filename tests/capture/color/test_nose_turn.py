@@ -26,11 +26,13 @@ def _frame_map(unit=UNIT, origin=ORIGIN):
     return np.array([[unit, 0.0, origin[0]], [0.0, unit, origin[1]]])
 
 
-def _nose(axis_x, rng=None, size=(400, 300), down=0.0):
+def _nose(axis_x, rng=None, size=(400, 300), down=0.0, scale=1.0):
     """A drawn nose mirror-symmetric about face x = ``axis_x``, ``down`` face units lower than its place: two
-    dark nostrils, a bright tip, dark sides, on skin with a light gradient across it (and noise from ``rng``)."""
-    w, h = size
-    yy, xx = np.mgrid[0:h, 0:w].astype(float)
+    dark nostrils, a bright tip, dark sides, on skin with a light gradient across it (and noise from ``rng``);
+    ``scale`` times as many pixels each way (the face frame ``_frame_map(UNIT * scale, ORIGIN * scale)``)."""
+    w, h = int(size[0] * scale), int(size[1] * scale)
+    yy, xx = np.mgrid[0:h, 0:w].astype(float) / scale
+    w /= scale
     u, v = (xx - ORIGIN[0]) / UNIT - axis_x, (yy - ORIGIN[1]) / UNIT - down
     g = 150.0 + 40.0 * (xx / w)                                            # the light's slope: not symmetric
     g -= 70.0 * np.exp(-(((np.abs(u) - 0.12) / 0.05) ** 2 + ((v - 0.78) / 0.03) ** 2))   # nostrils
@@ -104,6 +106,23 @@ def test_the_tip_is_found_where_it_was_moved():
     got = tip_shift(tip_detail(_nose(0.2), M), reference, (0.0, 0.0), 0.05)
     assert abs(got[0]) <= 0.05 + 1e-9 and got[2] < 0.9, got
     assert tip_shift(tip_detail(np.full((300, 400, 3), 128, np.uint8), M), reference) == (0.0, 0.0, 0.0)
+
+
+def test_a_face_of_many_pixels_to_a_sample_gives_the_same_detail():
+    """The drawn nose filmed with 2.5 and 5 times as many pixels (a sample spanning 5 and 10 pixels: the frame
+    halved by pyramid levels before sampling) gives the detail of the face of 2 pixels to a sample (correlation
+    over 0.98), and its moved tip is found where it was moved, to a quarter of a sample."""
+    x0, y0, x1, y1 = tip_window()
+    small = tip_detail(_nose(0.0), _frame_map())
+    for scale in (2.5, 5.0):
+        M = _frame_map(UNIT * scale, (ORIGIN[0] * scale, ORIGIN[1] * scale))
+        big = tip_detail(_nose(0.0, scale=scale), M)
+        assert big.shape == small.shape
+        assert np.corrcoef(big.ravel(), small.ravel())[0, 1] > 0.98, scale
+        reference = np.ascontiguousarray(big[y0:y1, x0:x1])
+        for dx, dy in ((0.05, -0.03), (-0.11, 0.17), (0.023, 0.061)):
+            got = tip_shift(tip_detail(_nose(dx, down=dy, scale=scale), M), reference)
+            assert abs(got[0] - dx) < 0.005 and abs(got[1] - dy) < 0.005 and got[2] > 0.9, (scale, dx, dy, got)
 
 
 def test_a_tip_lost_for_long_is_taken_afresh(rng):

@@ -8,19 +8,19 @@ expression (the lids, brows and lips move around it):
 - **The tip's shift.** Seen along the line of sight under weak perspective, a point ``z`` proud of the eye
   centres moves ``z sin(yaw)`` sideways and ``z sin(pitch)`` up or down against them, while the eye distance
   ``D`` shrinks only as ``cos(yaw)``; so in face units (the eye distance) the tip moves ``k sin(angle)`` from
-  its place in a frontal face, with ``k = z / D`` (:data:`NOSE_DEPTH` sideways, :data:`TIP_DEPTH` up and
-  down). The tip and nostrils (:data:`TIP_REGION`) are resampled upright in the face frame
-  (:data:`TIP_SAMPLES_PER_UNIT`; a face of many pixels to a sample is blurred first) and their detail (the
-  grey blurred over the finer of :data:`TIP_SIGMA` less its blur over the wider: the nostrils, the tip's
-  highlight, the sides' edges, not the light's slope across the face) is found in each frame by normalised
-  cross-correlation with a running reference, within :data:`TIP_SEARCH` of its place in the first frame
-  measured. The place is then taken from the first frame's tip where that matches (:data:`MIN_FIRST_MATCH`)
-  within :data:`TIP_REFINE` of it, to a fraction of a sample by a parabola through the best match and its
-  neighbours along each axis, and only such a tip is blended into the running reference (at
+  its place in a frontal face, with ``k = z / D`` (:data:`NOSE_DEPTH` sideways, :data:`TIP_DEPTH` up and down).
+  The tip and nostrils (:data:`TIP_REGION`) are resampled upright in the face frame
+  (:data:`TIP_SAMPLES_PER_UNIT`; a face of many pixels to a sample is first halved by Gaussian pyramid levels)
+  and their detail (the grey blurred over the finer of :data:`TIP_SIGMA` less its blur over the wider: the
+  nostrils, the tip's highlight, the sides' edges, not the light's slope across the face) is found in each frame
+  by normalised cross-correlation with a running reference, within :data:`TIP_SEARCH` of its place in the first
+  frame measured. The place is then taken from the first frame's tip where that matches
+  (:data:`MIN_FIRST_MATCH`) within :data:`TIP_REFINE` of it, to a fraction of a sample by a parabola through the
+  best match and its neighbours along each axis, and only such a tip is blended into the running reference (at
   :data:`TIP_LEARN`: the nose's look changes as the head turns and nods, and the nostrils show and hide; the
   first tip anchors it). A match with the running reference under :data:`MIN_TIP_MATCH` (the tip hidden, the
-  face frame off the face) gives no reading: the last angles are held, and after :data:`TIP_MISSES` such
-  frames in a row the tip is taken afresh from the next frame.
+  face frame off the face) gives no reading: the last angles are held, and after :data:`TIP_MISSES` such frames
+  in a row the tip is taken afresh from the next frame.
 - **The neutral.** The reference frame need not face the camera, noses and lights are not symmetric, where
   the eye centres are found on a face differs between people, and the camera may look from above or below:
   the neutral shift is, per axis, the running median of the shifts of the last :data:`NEUTRAL_FRAMES`
@@ -108,20 +108,30 @@ def tip_detail(rgb: np.ndarray, M: np.ndarray) -> np.ndarray:
     Q = np.array([[step, 0.0, x0 + 0.5 * step], [0.0, step, y0 + 0.5 * step], [0.0, 0.0, 1.0]])
     W = (np.vstack([np.asarray(M, dtype=float), [0.0, 0.0, 1.0]]) @ Q)[:2]
     spacing = float(np.sqrt(abs(np.linalg.det(W[:, :2]))))          # image pixels between two samples
+    g = None
     if spacing > 2.0 and np.isfinite(W).all():
-        # A face many pixels to a sample: its rectangle of the frame blurred first (half a sample), so that
-        # the samples do not alias the skin's and the nostrils' fine detail.
+        # A face many pixels to a sample: its rectangle of the frame, in grey, halved by levels of a Gaussian
+        # pyramid until a sample spans at most 2 pixels, so that the samples do not alias the skin's and the
+        # nostrils' fine detail (each level's 5-tap blur is the anti-aliasing).
         corners = W @ np.array([[0.0, size[0], 0.0, size[0]], [0.0, 0.0, size[1], size[1]], [1.0, 1.0, 1.0, 1.0]])
         pad = int(np.ceil(1.5 * spacing)) + 1
         h, w = rgb.shape[:2]
         c0, r0 = max(int(corners[0].min()) - pad, 0), max(int(corners[1].min()) - pad, 0)
         c1, r1 = min(int(corners[0].max()) + pad + 1, w), min(int(corners[1].max()) + pad + 1, h)
         if c1 - c0 > 1 and r1 - r0 > 1:
-            rgb = cv2.GaussianBlur(rgb[r0:r1, c0:c1], (0, 0), 0.5 * spacing)
+            part = cv2.cvtColor(rgb[r0:r1, c0:c1], cv2.COLOR_RGB2GRAY)
             W = W.copy()
             W[:, 2] -= (c0, r0)
-    g = cv2.cvtColor(cv2.warpAffine(rgb, W, size, flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
-                                    borderMode=cv2.BORDER_REPLICATE), cv2.COLOR_RGB2GRAY).astype(np.float32)
+            while spacing > 2.0 and min(part.shape) > 8:
+                part = cv2.pyrDown(part)                # pixel x of the half is pixel 2x of the whole
+                W *= 0.5
+                spacing *= 0.5
+            g = cv2.warpAffine(part, W, size, flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+                               borderMode=cv2.BORDER_REPLICATE)
+    if g is None:
+        g = cv2.cvtColor(cv2.warpAffine(rgb, W, size, flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+                                        borderMode=cv2.BORDER_REPLICATE), cv2.COLOR_RGB2GRAY)
+    g = g.astype(np.float32)
     return cv2.GaussianBlur(g, (0, 0), TIP_SIGMA[0] * n) - cv2.GaussianBlur(g, (0, 0), TIP_SIGMA[1] * n)
 
 
