@@ -16,6 +16,9 @@ such footage from the shared clips and measures it with the shared yardstick:
 - ``darker``: skin-coloured pixels (a window of Cr and Cb around skin's) darkened by a gamma of 1.6 and made
   browner (R 0.72, G 0.62, B 0.55), feathered over 3 px (a darker complexion, roughly: the lips and the warm
   background within the window darken too);
+- ``deep``: the same skin-coloured pixels scaled channel by channel by R 0.42, G 0.39, B 0.35 (a deep
+  complexion: cheeks of about (200, 160, 140) become (84, 62, 49); linear, so the features keep their contrast
+  to the skin as a ratio, and the eyes' white, the hair and a lighter wall behind keep theirs);
 - ``lowres``: the frame shrunk to 2/5 and saved as JPEG of quality 35, kept at that size (a cheap webcam's stream);
 - ``backlit``: the frame halved in brightness under a veiling glare that falls from white at the top to nothing
   two thirds down (a bright window behind and above the performer: low contrast on the upper face);
@@ -49,7 +52,7 @@ profile (no landmark model: the copies test the colour pipeline alone), and scor
 The bars of the shared clips are NME <= 0.05, jitter ratio <= 1.5, coverage >= 0.98.
 
 Run: ``python benchmarks/eval_robustness.py [--clips performer_a performer_c] [--variants dim warm noisy small
-face80 cool rolled mirrored portrait darker lowres backlit haze long short grey hd wood beige skin_object poster
+face80 cool rolled mirrored portrait darker deep lowres backlit haze long short grey hd wood beige skin_object poster
 stage_hand beard] [--assets PATH] [--jobs 2]``
 (about 20 s per copy of a or c on one core, MediaPipe's reference included; ``performer_b_exaggerated`` is
 three times as long).
@@ -69,8 +72,8 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-VARIANTS = ("dim", "warm", "noisy", "small", "face80", "cool", "rolled", "mirrored", "portrait", "darker", "lowres",
-            "backlit", "haze", "long", "short", "grey", "hd")
+VARIANTS = ("dim", "warm", "noisy", "small", "face80", "cool", "rolled", "mirrored", "portrait", "darker", "deep",
+            "lowres", "backlit", "haze", "long", "short", "grey", "hd")
 BACKGROUNDS = ("wood", "beige", "skin_object", "poster", "stage_hand")
 DRAWN = ("beard",)
 #: The face cut out: an oval centred this far below the eyes, with these half-axes (eye-centre distances).
@@ -85,6 +88,7 @@ ROLL = 15.0                 # the rolled copy's turn, degrees counter-clockwise
 #: of its edge (levels), the gamma and the RGB gains applied inside it.
 SKIN_CR, SKIN_CB, SKIN_HALF, SKIN_FEATHER = 150.0, 110.0, 15.0, 10.0
 DARKER_GAMMA, DARKER_GAINS = 1.6, (0.72, 0.62, 0.55)
+DEEP_GAINS = (0.42, 0.39, 0.35)     # the deep copy's RGB gains inside the skin window
 LOWRES_QUALITY = 35         # JPEG quality of the lowres copy's frames
 #: Vertical scale of the ``long`` and ``short`` copies (faces whose mouth and chin sit farther from or nearer to
 #: the eyes: people's proportions differ that much, the eye-mouth distance from about 1 to 1.5 eye distances).
@@ -163,7 +167,7 @@ def altered(rgb: np.ndarray, variant: str, rng: np.random.Generator, unit: float
         h, w = rgb.shape[:2]
         keep = min(w, int(h * 9 / 16) // 2 * 2)
         return np.ascontiguousarray(rgb[:, (w - keep) // 2:(w - keep) // 2 + keep])
-    elif variant == "darker":
+    elif variant in ("darker", "deep"):
         ycc = cv2.cvtColor(rgb, cv2.COLOR_RGB2YCrCb).astype(np.float32)
 
         def window(v, centre):
@@ -171,7 +175,10 @@ def altered(rgb: np.ndarray, variant: str, rng: np.random.Generator, unit: float
 
         m = cv2.GaussianBlur(window(ycc[..., 1], SKIN_CR) * window(ycc[..., 2], SKIN_CB), (0, 0), 3.0)[..., None]
         u = x / 255.0
-        dark = u ** DARKER_GAMMA * np.array(DARKER_GAINS, dtype=np.float32)
+        if variant == "darker":
+            dark = u ** DARKER_GAMMA * np.array(DARKER_GAINS, dtype=np.float32)
+        else:
+            dark = u * np.array(DEEP_GAINS, dtype=np.float32)
         x = 255.0 * (m * dark + (1.0 - m) * u)
     elif variant == "lowres":
         h, w = rgb.shape[:2]

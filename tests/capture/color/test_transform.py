@@ -81,3 +81,49 @@ def test_greyscale_image_leaves_only_the_value_terms():
     w = np.array([0.9, 0.2, -0.8, 0.5], dtype=np.float32)
     out = transform(grey, w, lip_hue_table(LipHue()))
     np.testing.assert_allclose(out, w[1] + (w[2] - w[1]) * np.tile(v, (4, 1)) / 255.0, atol=1e-5)
+
+
+def test_generic_weights_go_over_to_the_dark_skins_as_the_skin_darkens():
+    """dark_skin_weights: the given weights at and above DARK_SKIN's upper level, DARK_WEIGHTS at and under its
+    lower, halfway between them halfway up; feature_intensity with ``dark`` reads the skin's level as the median
+    V over the skin rectangles: on bright skin it is the call without ``dark`` to the bit, on dark skin the call
+    with DARK_WEIGHTS."""
+    from facepuppet.capture.color.transform import (
+        DARK_SKIN,
+        DARK_WEIGHTS,
+        DEFAULT_WEIGHTS,
+        dark_skin_weights,
+        feature_intensity,
+    )
+
+    lo, hi = DARK_SKIN
+    np.testing.assert_allclose(dark_skin_weights(DEFAULT_WEIGHTS, DARK_WEIGHTS, hi + 30), DEFAULT_WEIGHTS, atol=1e-7)
+    np.testing.assert_allclose(dark_skin_weights(DEFAULT_WEIGHTS, DARK_WEIGHTS, lo - 30), DARK_WEIGHTS, atol=1e-7)
+    np.testing.assert_allclose(dark_skin_weights(DEFAULT_WEIGHTS, DARK_WEIGHTS, 0.5 * (lo + hi)),
+                               0.5 * (DEFAULT_WEIGHTS + DARK_WEIGHTS), atol=1e-7)
+    rng = np.random.default_rng(3)
+    table = lip_hue_table(LipHue())
+    skin_boxes = np.array([[0, 0, 20, 10], [30, 0, 50, 10]], np.int64)
+    feature_boxes = np.array([[0, 20, 50, 30]], np.int64)
+    for skin, weights in (((220, 170, 150), DEFAULT_WEIGHTS), ((80, 60, 48), DARK_WEIGHTS)):
+        crop = np.clip(np.array(skin) + rng.normal(0, 4, (30, 50, 3)), 0, 255).astype(np.uint8)
+        crop[20:, 10:40] = (40, 20, 25)                                          # a dark feature below
+        got = feature_intensity(crop, DEFAULT_WEIGHTS.astype(float), table, 0.12, skin_boxes, feature_boxes,
+                                dark=DARK_WEIGHTS)
+        want = feature_intensity(crop, weights.astype(float), table, 0.12, skin_boxes, feature_boxes)
+        for a, b in zip(got, want, strict=True):
+            np.testing.assert_array_equal(a, b)
+
+
+def test_only_the_generic_profile_has_dark_skin_weights():
+    """A profile of the generic weights and no network goes over to DARK_WEIGHTS on dark skin; a trained one
+    (a network) or one of other weights keeps its own."""
+    from dataclasses import replace
+
+    from facepuppet.capture.color.profile import default_profile
+    from facepuppet.capture.color.transform import DARK_WEIGHTS
+
+    generic = default_profile()
+    np.testing.assert_array_equal(generic.dark_skin_weights, DARK_WEIGHTS)
+    assert replace(generic, weights=np.array([0.5, 0.3, -0.9, 0.3])).dark_skin_weights is None
+    assert replace(generic, net={"w0": np.zeros((11, 10))}).dark_skin_weights is None

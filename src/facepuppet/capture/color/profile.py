@@ -17,7 +17,7 @@ import numpy as np
 
 from facepuppet._util.atomic import atomic_path
 from facepuppet.capture.color.face import SkinModel
-from facepuppet.capture.color.transform import DEFAULT_WEIGHTS, LipHue
+from facepuppet.capture.color.transform import DARK_WEIGHTS, DEFAULT_WEIGHTS, LipHue
 from facepuppet.capture.curves import CURVE_NAMES
 from facepuppet.errors import FacepuppetError
 
@@ -122,6 +122,14 @@ class Profile:
     head: dict = field(default_factory=dict)
     name: str = "generic"
     mouth_reach: float = GENERIC_MOUTH_REACH
+
+    @property
+    def dark_skin_weights(self) -> np.ndarray | None:
+        """Eq. 1's weights for skin of a low value (:data:`~.transform.DARK_WEIGHTS`, which the generic weights
+        go over to on a dark face, :func:`~.transform.dark_skin_weights`) for a profile of the generic weights
+        and no network; None for any other (its weights are the performer's own)."""
+        generic = not self.net and np.allclose(np.asarray(self.weights, dtype=float), DEFAULT_WEIGHTS)
+        return DARK_WEIGHTS.copy() if generic else None
 
 
 def default_profile() -> Profile:

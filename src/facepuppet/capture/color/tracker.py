@@ -99,6 +99,7 @@ class _Intensity:
     """Eq. 1's weights and the last frame's feature images."""
 
     weights: np.ndarray                     # (4,) float32 Eq. 1's weights
+    dark: np.ndarray | None = None          # (4,) their counterpart for skin of a low value (the generic profile)
     count: int = 0                          # followed crops transformed (the network re-estimates every few)
     raw: np.ndarray | None = None           # (H, W) float32 Eq. 1's intensity
     C: np.ndarray | None = None             # (H, W) float32 the contrast C
@@ -131,7 +132,7 @@ class ColorTracker:
         self.config = config
         wait_pending()          # kernels being compiled in the background are not compiled here again
         self._hue = lip_hue_table(profile.lip_hue)
-        self._intensity = _Intensity(np.asarray(profile.weights, dtype=np.float32))
+        self._intensity = _Intensity(np.asarray(profile.weights, dtype=np.float32), profile.dark_skin_weights)
         self._net = None
         if profile.net:
             from facepuppet.capture.color.net import ColourNet
@@ -305,7 +306,7 @@ class ColorTracker:
         it.crop = crop
         it.raw, it.C, it.value, it.eyes = feature_intensity(
             crop, it.weights.astype(np.float64), self._hue, self.profile.lip_hue.min_saturation,
-            self._cheek_boxes, self._eye_boxes, grey_contrast=followed)
+            self._cheek_boxes, self._eye_boxes, grey_contrast=followed, dark=it.dark)
         return it.C
 
     def eye_centres(self, C: np.ndarray, anchors: np.ndarray | None = None, *, dark: bool = False) -> np.ndarray | None:

@@ -38,10 +38,20 @@ __all__ = [
     "ycrcb_u8",
     "skin_fraction",
     "feature_intensity",
+    "DARK_WEIGHTS",
+    "DARK_SKIN",
+    "dark_skin_weights",
 ]
 
 #: Generic weights (w1, w2, w3, w4) of Eq. 1: magenta, black, value, lip hue.
 DEFAULT_WEIGHTS = np.array([0.9, 0.2, -0.8, 0.5], dtype=np.float32)
+#: Generic weights of Eq. 1 for skin of a low value V (dark skin, a dim face): there the colour terms, M =
+#: (V - G) / V and the hue's G(H), are ratios of small numbers, their noise growing as 1 / V, while the
+#: darkness term's contrast shrinks with V; magenta is left out and the lip hue's weight halved.
+DARK_WEIGHTS = np.array([0.0, 0.2, -0.8, 0.25], dtype=np.float32)
+#: The skin's level (the median HSV value V of the skin rectangles, 8-bit) at and under which the generic
+#: weights are :data:`DARK_WEIGHTS`, and from which they are :data:`DEFAULT_WEIGHTS`; linear in between.
+DARK_SKIN = (90.0, 140.0)
 
 # Tuning constants of the contrast C in feature_intensity
 #                      unit        what it does
@@ -224,15 +234,25 @@ def _eq1_row(v: np.ndarray, g: np.ndarray, hue_term: np.ndarray, out: np.ndarray
         out[x] = w1 * (vx - g[x]) / max(vx, 1.0) + kv * vx + w2 + hue_term[x]
 
 
+def dark_skin_weights(weights: np.ndarray, dark: np.ndarray, level: float) -> np.ndarray:
+    """Eq. 1's weights (4,) float64 for skin of median HSV value ``level`` (8-bit): ``weights`` from
+    :data:`DARK_SKIN`'s upper end, ``dark`` at and under its lower, linear in between."""
+    s = min(max((level - DARK_SKIN[0]) / (DARK_SKIN[1] - DARK_SKIN[0]), 0.0), 1.0)
+    return s * np.asarray(weights, dtype=np.float64) + (1.0 - s) * np.asarray(dark, dtype=np.float64)
+
+
 def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarray, min_saturation: float,
-                      skin_boxes: np.ndarray, feature_boxes: np.ndarray, *, grey_contrast: bool = False):
+                      skin_boxes: np.ndarray, feature_boxes: np.ndarray, *, grey_contrast: bool = False,
+                      dark: np.ndarray | None = None):
     """Eq. 1 and the contrast C over a face crop in one pass (as :func:`transform` and :func:`contrast`).
 
     I = w1 (V - G) / V + (w3 - w2) V + w2 + w4 G(H) with 8-bit V and G as in
     :func:`transform`; then C = smoothstep between the skin level (median of I
     over ``skin_boxes``) + :data:`CONTRAST_LOW` and + :data:`CONTRAST_HIGH` of the way to the brightest I in
     ``feature_boxes``
-    (a lone bright pixel is taken down to :data:`SPECK` times the brightest 3 x 3 mean's level). On a crop without
+    (a lone bright pixel is taken down to :data:`SPECK` times the brightest 3 x 3 mean's level). With ``dark``,
+    the weights go over to it as the skin's value falls (:func:`dark_skin_weights` of the median V over
+    ``skin_boxes``). On a crop without
     colour, the eyes' C takes fractions going over to :data:`GREY_CONTRAST` (:data:`GREY_SPREAD`). The hue and
     saturation are OpenCV's 8-bit HSV of the crop (:func:`cv2.cvtColor`), converted only when the hue term is
     used.
@@ -248,6 +268,8 @@ def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarr
         Rectangles (x0, y0, x1, y1).
     grey_contrast : bool
         Whether ``eyes`` goes over to :data:`GREY_CONTRAST` on a crop without colour.
+    dark : (4,) float, optional
+        The weights for skin of a low value (:data:`DARK_WEIGHTS` for the generic ones); default none.
 
     Returns
     -------
@@ -261,8 +283,29 @@ def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarr
         C as the eye search reads it: on a crop without colour (and ``grey_contrast``) at fractions going over to
         :data:`GREY_CONTRAST`, else ``C`` itself.
     """
+    if dark is not None:
+        weights = dark_skin_weights(weights, dark, _skin_level(crop, skin_boxes))
     hsv = cv2.cvtColor(crop, cv2.COLOR_RGB2HSV) if weights[3] != 0.0 else _NO_HSV
-    return _feature_intensity(crop, hsv, weights, hue_table, min_saturation, skin_boxes, feature_boxes, grey_contrast)
+    return _feature_intensity(crop, hsv, np.asarray(weights, dtype=np.float64), hue_table, min_saturation,
+                              skin_boxes, feature_boxes, grey_contrast)
+
+
+@nb.njit(**KERNEL)
+def _skin_level(crop: np.ndarray, boxes: np.ndarray) -> float:
+    """Median HSV value V (8-bit) of the pixels of the rectangles ``boxes`` (N, 4) int64 of ``crop`` together
+    (clipped to it; 0 if none)."""
+    h, w = crop.shape[:2]
+    total = 0
+    for b in range(len(boxes)):
+        total += max(min(boxes[b, 2], w) - max(boxes[b, 0], 0), 0) * max(min(boxes[b, 3], h) - max(boxes[b, 1], 0), 0)
+    vals = np.empty(total)
+    n = 0
+    for b in range(len(boxes)):
+        for y in range(max(boxes[b, 1], 0), min(boxes[b, 3], h)):
+            for x in range(max(boxes[b, 0], 0), min(boxes[b, 2], w)):
+                vals[n] = max(crop[y, x, 0], crop[y, x, 1], crop[y, x, 2])
+                n += 1
+    return np.median(vals[:n]) if n else 0.0
 
 
 #: The HSV image :func:`_feature_intensity` is given when the hue term is not used (it is not read).
