@@ -6,7 +6,6 @@ import numpy as np
 from facepuppet.capture.color.nose_turn import (
     MIN_TIP_MATCH,
     NOSE_DEPTH,
-    NOSE_FILTER,
     TIP_DEPTH,
     TIP_MISSES,
     NoseTurn,
@@ -15,7 +14,7 @@ from facepuppet.capture.color.nose_turn import (
     tip_shift,
     tip_window,
 )
-from facepuppet.capture.color.tracker import ColorTracker
+from facepuppet.capture.color.tracker import TURN_FILTER, ColorTracker
 from facepuppet.capture.pose import HeadPose, default_camera
 from facepuppet.filters import OneEuro
 
@@ -257,17 +256,17 @@ def test_calls_that_do_not_measure_are_counted_and_hold_the_last_reading():
     assert turn.due
 
 
-def test_the_readings_filter_follows_a_quick_turn_and_calms_a_still_head(rng):
-    """NOSE_FILTER at 30 frames a second: a steady turn of 60 degrees a second lags under half a frame after two
-    seconds; white noise of 0.3 degrees on a still head moves the output under a quarter as much from frame to
-    frame."""
+def test_the_turns_filter_follows_a_quick_turn_and_calms_a_still_head(rng):
+    """The yaw and pitch's filter (TURN_FILTER) at 30 frames a second: a steady turn of 60 degrees a second lags
+    under half a frame after two seconds; white noise of 0.3 degrees on a still head moves the output under a
+    quarter as much from frame to frame."""
     dt, speed = 1.0 / 30.0, np.radians(60.0)
-    f = OneEuro(NOSE_FILTER)
+    f = OneEuro(TURN_FILTER)
     f.restart(np.zeros(2))
     for i in range(1, 61):
         out = f(np.array([speed * i * dt, 0.0]), dt)
     assert 0.0 < (speed * 60 * dt - out[0]) / (speed * dt) < 0.5
-    f = OneEuro(NOSE_FILTER)
+    f = OneEuro(TURN_FILTER)
     f.restart(np.zeros(2))
     noise = np.radians(0.3) * rng.standard_normal((300, 2))
     calm = np.array([f(x, dt) for x in noise])

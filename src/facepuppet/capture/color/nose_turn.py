@@ -40,11 +40,9 @@ import math
 import cv2
 import numpy as np
 
-from facepuppet.filters import OneEuroConfig
-
 __all__ = ["TIP_REGION", "TIP_SAMPLES_PER_UNIT", "TIP_SIGMA", "TIP_SEARCH", "MIN_TIP_MATCH", "MIN_FIRST_MATCH",
            "TIP_REFINE", "TIP_LEARN", "TIP_MISSES", "NOSE_DEPTH", "TIP_DEPTH", "NEUTRAL_FRAMES", "MEASURE_EVERY",
-           "LOOK_SHARE", "NOSE_FILTER", "face_to_image", "tip_detail", "tip_window", "tip_shift", "NoseTurn"]
+           "LOOK_SHARE", "face_to_image", "tip_detail", "tip_window", "tip_shift", "NoseTurn"]
 
 # Constants                      unit                what it is
 TIP_REGION = (-0.12, 0.55, 0.12, 0.83)  # face units  (x0, y0, x1, y1): the nose's tip and nostrils
@@ -75,11 +73,6 @@ MEASURE_EVERY = 3                # frames            the nose is measured on eve
 #: pitch (a camera above or below the face is in the neutral already: the shared clips' pitch errors grew
 #: with half of it).
 LOOK_SHARE = (0.5, 0.0)
-#: The One-Euro filter of the yaw and pitch read (radians): 1 Hz still, rising 10 Hz per radian a second. At 30
-#: frames a second a steady turn of 60 degrees a second lags a third of a frame (the head-turn model's filter,
-#: rising 2 Hz: a whole frame, on top of the readings held between measured frames), and a still head's
-#: frame-to-frame noise is cut to a fifth.
-NOSE_FILTER = OneEuroConfig(min_cutoff=1.0, beta=10.0)
 
 
 def face_to_image(A: np.ndarray, S_px: np.ndarray, px: float, origin: tuple[float, float]) -> np.ndarray:

@@ -49,7 +49,7 @@ from facepuppet.capture.color.head_turn import RAY_SHARE, apply_turn_model, turn
 from facepuppet.capture.color.jobs import wait_pending
 from facepuppet.capture.color.likeness import FaceTemplate
 from facepuppet.capture.color.measure import Measurement, Placement
-from facepuppet.capture.color.nose_turn import LOOK_SHARE, NOSE_FILTER, NoseTurn, face_to_image
+from facepuppet.capture.color.nose_turn import LOOK_SHARE, NoseTurn, face_to_image
 from facepuppet.capture.color.outliner import Outliner
 from facepuppet.capture.color.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
 from facepuppet.capture.color.refind import LostFace
@@ -90,8 +90,8 @@ _CHEEK_L, _CHEEK_R = BOX_NAMES.index("cheek_left"), BOX_NAMES.index("cheek_right
 _EYE_L, _EYE_R = BOX_NAMES.index("eye_left"), BOX_NAMES.index("eye_right")
 #: Two layout points (curve, control point) the placement of the layout is read back from: the outer eye corners.
 _PLACED_PAIR = ((_IDX["eye_right_upper"], 3), (_IDX["eye_left_upper"], 3))
-#: The filter of the head-turn model's yaw and pitch (radians); the nose's use :data:`.nose_turn.NOSE_FILTER`.
-TURN_FILTER = OneEuroConfig(min_cutoff=1.0, beta=2.0)
+#: The One-Euro filter of the yaw and pitch (radians): a steady turn of 60 deg/s lags a third of a frame at 30 /s.
+TURN_FILTER = OneEuroConfig(min_cutoff=1.0, beta=10.0)
 
 
 @dataclass
@@ -174,7 +174,7 @@ class ColorTracker:
         self._smoother = CurveSmoother(config.filters, lids=bool(self._outliner.lids), shaped=np.concatenate(
             [FAMILIES[f] for f in sorted(self.profile.shapes)] or [np.zeros(0, int)]))
         self._acquirer = Acquirer(self, self._place, self._template, self._eye_window)
-        self._turn_filter = OneEuro(TURN_FILTER if profile.head else NOSE_FILTER)
+        self._turn_filter = OneEuro(TURN_FILTER)
         self._nose_turn = NoseTurn()
 
     # -- what other modules read -----------------------------------------------------------------------
