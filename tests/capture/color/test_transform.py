@@ -115,15 +115,33 @@ def test_generic_weights_go_over_to_the_dark_skins_as_the_skin_darkens():
             np.testing.assert_array_equal(a, b)
 
 
-def test_only_the_generic_profile_has_dark_skin_weights():
-    """A profile of the generic weights and no network goes over to DARK_WEIGHTS on dark skin; a trained one
-    (a network) or one of other weights keeps its own."""
+def test_only_the_generic_profile_has_dark_weights(tmp_path):
+    """A profile of the generic weights and no network goes over to DARK_WEIGHTS on dark skin, saved and loaded
+    again too; a trained one (a network) or one of other weights keeps its own."""
     from dataclasses import replace
 
-    from facepuppet.capture.color.profile import default_profile
+    from facepuppet.capture.color.profile import default_profile, load_profile, save_profile
     from facepuppet.capture.color.transform import DARK_WEIGHTS
 
     generic = default_profile()
-    np.testing.assert_array_equal(generic.dark_skin_weights, DARK_WEIGHTS)
-    assert replace(generic, weights=np.array([0.5, 0.3, -0.9, 0.3])).dark_skin_weights is None
-    assert replace(generic, net={"w0": np.zeros((11, 10))}).dark_skin_weights is None
+    np.testing.assert_array_equal(generic.dark_weights, DARK_WEIGHTS)
+    save_profile(tmp_path / "generic.npz", generic)
+    np.testing.assert_array_equal(load_profile(tmp_path / "generic.npz").dark_weights, DARK_WEIGHTS)
+    assert replace(generic, weights=np.array([0.5, 0.3, -0.9, 0.3])).dark_weights is None
+    assert replace(generic, net={"w0": np.zeros((11, 10))}).dark_weights is None
+
+
+def test_the_skin_level_reads_only_the_boxes_parts_inside_the_crop():
+    """_skin_level: the median V of the rectangles' pixels inside the crop (a box partly outside counts its
+    inside part; one wholly outside none); with no pixel at all, DARK_SKIN's upper level."""
+    from facepuppet.capture.color.transform import DARK_SKIN, _skin_level
+
+    crop = np.zeros((20, 30, 3), np.uint8)
+    crop[:, :10] = (100, 20, 30)            # V 100 on the left third
+    crop[:, 10:] = (30, 200, 40)            # V 200 elsewhere
+    inside_left = np.array([[-5, -5, 10, 10]], np.int64)             # its inside part: 10 x 10 px of V 100
+    assert _skin_level(crop, inside_left) == 100.0
+    both = np.array([[-5, 0, 10, 10], [25, 15, 40, 30], [50, 50, 60, 60]], np.int64)  # 100 px of 100, 25 of 200
+    assert _skin_level(crop, both) == 100.0
+    assert _skin_level(crop, np.array([[25, 15, 40, 30]], np.int64)) == 200.0
+    assert _skin_level(crop, np.array([[50, 50, 60, 60]], np.int64)) == DARK_SKIN[1]

@@ -126,6 +126,8 @@ def tip_detail(rgb: np.ndarray, M: np.ndarray) -> np.ndarray:
                 part = cv2.pyrDown(part)                # pixel x of the half is pixel 2x of the whole
                 W *= 0.5
                 spacing *= 0.5
+            if spacing > 2.0:                           # a sliver at the frame's edge: blurred instead
+                part = cv2.GaussianBlur(part, (0, 0), 0.5 * spacing)
             g = cv2.warpAffine(part, W, size, flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
                                borderMode=cv2.BORDER_REPLICATE)
     if g is None:

@@ -124,7 +124,7 @@ class Profile:
     mouth_reach: float = GENERIC_MOUTH_REACH
 
     @property
-    def dark_skin_weights(self) -> np.ndarray | None:
+    def dark_weights(self) -> np.ndarray | None:
         """Eq. 1's weights for skin of a low value (:data:`~.transform.DARK_WEIGHTS`, which the generic weights
         go over to on a dark face, :func:`~.transform.dark_skin_weights`) for a profile of the generic weights
         and no network; None for any other (its weights are the performer's own)."""

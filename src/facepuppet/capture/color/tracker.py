@@ -90,7 +90,7 @@ _CHEEK_L, _CHEEK_R = BOX_NAMES.index("cheek_left"), BOX_NAMES.index("cheek_right
 _EYE_L, _EYE_R = BOX_NAMES.index("eye_left"), BOX_NAMES.index("eye_right")
 #: Two layout points (curve, control point) the placement of the layout is read back from: the outer eye corners.
 _PLACED_PAIR = ((_IDX["eye_right_upper"], 3), (_IDX["eye_left_upper"], 3))
-#: The One-Euro filter of the yaw and pitch (radians): a steady turn of 60 deg/s lags a third of a frame at 30 /s.
+#: One-Euro filter of the yaw and pitch (radians): read every frame, a 60 deg/s turn lags 1/3 frame at 30 /s.
 TURN_FILTER = OneEuroConfig(min_cutoff=1.0, beta=10.0)
 
 
@@ -98,7 +98,7 @@ TURN_FILTER = OneEuroConfig(min_cutoff=1.0, beta=10.0)
 class _Intensity:
     """Eq. 1's weights and the last frame's feature images."""
 
-    weights: np.ndarray                     # (4,) float32 Eq. 1's weights
+    weights: np.ndarray                     # (4,) float32 Eq. 1's weights (on skin of a high enough value)
     dark: np.ndarray | None = None          # (4,) their counterpart for skin of a low value (the generic profile)
     count: int = 0                          # followed crops transformed (the network re-estimates every few)
     raw: np.ndarray | None = None           # (H, W) float32 Eq. 1's intensity
@@ -132,7 +132,7 @@ class ColorTracker:
         self.config = config
         wait_pending()          # kernels being compiled in the background are not compiled here again
         self._hue = lip_hue_table(profile.lip_hue)
-        self._intensity = _Intensity(np.asarray(profile.weights, dtype=np.float32), profile.dark_skin_weights)
+        self._intensity = _Intensity(np.asarray(profile.weights, dtype=np.float32), profile.dark_weights)
         self._net = None
         if profile.net:
             from facepuppet.capture.color.net import ColourNet
@@ -287,12 +287,12 @@ class ColorTracker:
     def intensity(self, crop: np.ndarray, *, followed: bool = False) -> np.ndarray:
         """Eq. 1 and the contrast C on a face crop (H, W, 3) uint8 -> (H, W) float32 in [0, 1].
 
-        Eq. 1's weights start at the profile's; with a trained profile the colour network re-estimates them on
-        every ``measure.reestimate_every``-th crop of a ``followed`` face, and they move
-        ``measure.reestimate_gain`` of the way to its estimate: the light changes slowly, and one crop's
-        estimate moves with the expression too. A candidate of the search for the face is seen with the weights
-        in use (the light is the last frame's), whatever the order the candidates are tried in. On a followed
-        crop without colour the eye search reads a C of stronger contrast (``_intensity.eyes``).
+        Eq. 1's weights start at the profile's; with a trained profile the colour network re-estimates them on every
+        ``measure.reestimate_every``-th crop of a ``followed`` face, and they move ``reestimate_gain`` of the way to
+        its estimate (the light changes slowly, one crop's estimate moves with the expression); the generic ones go
+        over to the dark skin's by each crop's cheeks (:func:`~.transform.dark_skin_weights`). A candidate of the
+        search for the face is seen with the weights in use (the light is the last frame's), whatever the order the
+        candidates are tried in. On a followed crop without colour the eye search reads a stronger C (``.eyes``).
         """
         it = self._intensity
         if self._net is not None and followed:

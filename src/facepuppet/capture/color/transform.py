@@ -45,9 +45,10 @@ __all__ = [
 
 #: Generic weights (w1, w2, w3, w4) of Eq. 1: magenta, black, value, lip hue.
 DEFAULT_WEIGHTS = np.array([0.9, 0.2, -0.8, 0.5], dtype=np.float32)
-#: Generic weights of Eq. 1 for skin of a low value V (dark skin, a dim face): there the colour terms, M =
-#: (V - G) / V and the hue's G(H), are ratios of small numbers, their noise growing as 1 / V, while the
-#: darkness term's contrast shrinks with V; magenta is left out and the lip hue's weight halved.
+#: Generic weights of Eq. 1 for skin of a low value V in the crop as measured (dark skin, or a face the light's
+#: stretch left dark): there the colour terms, M = (V - G) / V and the hue's G(H), are ratios of small numbers,
+#: their noise growing as 1 / V, while the darkness term's contrast shrinks with V; magenta is left out and the
+#: lip hue's weight halved.
 DARK_WEIGHTS = np.array([0.0, 0.2, -0.8, 0.25], dtype=np.float32)
 #: The skin's level (the median HSV value V of the skin rectangles, 8-bit) at and under which the generic
 #: weights are :data:`DARK_WEIGHTS`, and from which they are :data:`DEFAULT_WEIGHTS`; linear in between.
@@ -246,16 +247,13 @@ def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarr
                       dark: np.ndarray | None = None):
     """Eq. 1 and the contrast C over a face crop in one pass (as :func:`transform` and :func:`contrast`).
 
-    I = w1 (V - G) / V + (w3 - w2) V + w2 + w4 G(H) with 8-bit V and G as in
-    :func:`transform`; then C = smoothstep between the skin level (median of I
-    over ``skin_boxes``) + :data:`CONTRAST_LOW` and + :data:`CONTRAST_HIGH` of the way to the brightest I in
-    ``feature_boxes``
-    (a lone bright pixel is taken down to :data:`SPECK` times the brightest 3 x 3 mean's level). With ``dark``,
-    the weights go over to it as the skin's value falls (:func:`dark_skin_weights` of the median V over
-    ``skin_boxes``). On a crop without
-    colour, the eyes' C takes fractions going over to :data:`GREY_CONTRAST` (:data:`GREY_SPREAD`). The hue and
-    saturation are OpenCV's 8-bit HSV of the crop (:func:`cv2.cvtColor`), converted only when the hue term is
-    used.
+    I = w1 (V - G) / V + (w3 - w2) V + w2 + w4 G(H) with 8-bit V and G as in :func:`transform`; then C = smoothstep
+    between the skin level (median of I over ``skin_boxes``) + :data:`CONTRAST_LOW` and + :data:`CONTRAST_HIGH` of
+    the way to the brightest I in ``feature_boxes`` (a lone bright pixel is taken down to :data:`SPECK` times the
+    brightest 3 x 3 mean's level). With ``dark``, the weights go over to it as the skin's value falls
+    (:func:`dark_skin_weights` of the median V over ``skin_boxes``). On a crop without colour, the eyes' C takes
+    fractions going over to :data:`GREY_CONTRAST` (:data:`GREY_SPREAD`). The hue and saturation are OpenCV's 8-bit
+    HSV of the crop (:func:`cv2.cvtColor`), converted only when the hue term is used.
 
     Parameters
     ----------
@@ -293,7 +291,7 @@ def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarr
 @nb.njit(**KERNEL)
 def _skin_level(crop: np.ndarray, boxes: np.ndarray) -> float:
     """Median HSV value V (8-bit) of the pixels of the rectangles ``boxes`` (N, 4) int64 of ``crop`` together
-    (clipped to it; 0 if none)."""
+    (clipped to it); without any pixel, :data:`DARK_SKIN`'s upper level (the given weights are kept)."""
     h, w = crop.shape[:2]
     total = 0
     for b in range(len(boxes)):
@@ -305,7 +303,7 @@ def _skin_level(crop: np.ndarray, boxes: np.ndarray) -> float:
             for x in range(max(boxes[b, 0], 0), min(boxes[b, 2], w)):
                 vals[n] = max(crop[y, x, 0], crop[y, x, 1], crop[y, x, 2])
                 n += 1
-    return np.median(vals[:n]) if n else 0.0
+    return np.median(vals[:n]) if n else DARK_SKIN[1]
 
 
 #: The HSV image :func:`_feature_intensity` is given when the hue term is not used (it is not read).
