@@ -14,7 +14,8 @@ from facepuppet.capture.color.nose_turn import (
     tip_shift,
     tip_window,
 )
-from facepuppet.capture.color.tracker import TURN_FILTER, ColorTracker
+from facepuppet.capture.color.tracker import ColorTracker
+from facepuppet.capture.color.turn import TURN_FILTER
 from facepuppet.capture.pose import HeadPose, default_camera
 from facepuppet.filters import OneEuro
 

@@ -59,7 +59,6 @@ class FollowState:
     found_again: int = 0                    # checks left at which a face found again must look like itself
     check_in: int = 1                       # frames to the next check of the likeness
     pose: object = None                     # the last head pose (the next solve starts there)
-    turn_ms: int | None = None              # time of the last head-turn reading
     #: The last face lost that had passed its first checks (its frame, size reference and the time it was lost
     #: at), kept while the faces found again after it have not (:attr:`found_again`).
     pending: tuple[FaceFrame, float, float] | None = None

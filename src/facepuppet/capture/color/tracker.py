@@ -6,9 +6,9 @@ is first aligned on the acquisition's, :mod:`.follow`); Eq. 1 and the contrast C
 (:mod:`.transform`); a blob is grown in each feature's rectangle and the layout's curves moved onto it
 (:mod:`.rules`), the lips refined as snakes (Eqs. 2-4, :mod:`.snakes`) against the head's up-vector
 (:mod:`.outliner`); the eye blobs re-align the face frame for the next frame; the curves are smoothed
-(:mod:`.smoothing`) and the head pose comes from the stable curve ends (roll and position) and, with a trained
-profile, the look of the crop (yaw and pitch, :mod:`.head_turn`), with the built-in one the nose's tip against
-the eyes (yaw and pitch, :mod:`.nose_turn`).
+(:mod:`.smoothing`) and the head pose comes from the stable curve ends (roll and position) and the head's turn
+(yaw and pitch, :mod:`.turn`: with a trained profile the look of the crop, with the built-in one the nose's tip
+against the eyes).
 
 Conventions: RGB uint8 frames; curves in image pixels (x right, y down); left and right are the performer's.
 """
@@ -45,11 +45,9 @@ from facepuppet.capture.color.face import (
 )
 from facepuppet.capture.color.follow import OWN_CHECKS, Follower, FollowState
 from facepuppet.capture.color.glare import without_glare
-from facepuppet.capture.color.head_turn import RAY_SHARE, apply_turn_model, turn_angles, turn_rotation
 from facepuppet.capture.color.jobs import wait_pending
 from facepuppet.capture.color.likeness import FaceTemplate
 from facepuppet.capture.color.measure import Measurement, Placement
-from facepuppet.capture.color.nose_turn import LOOK_SHARE, NoseTurn, face_to_image
 from facepuppet.capture.color.outliner import Outliner
 from facepuppet.capture.color.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
 from facepuppet.capture.color.refind import LostFace
@@ -57,17 +55,10 @@ from facepuppet.capture.color.rules import BOX_NAMES, move_boxes
 from facepuppet.capture.color.shape_models import FAMILIES
 from facepuppet.capture.color.smoothing import CurveSmoother
 from facepuppet.capture.color.transform import feature_intensity, lip_hue_table, skin_fraction
+from facepuppet.capture.color.turn import HeadTurn
 from facepuppet.capture.curves import CURVE_NAMES, POINT_NAMES
 from facepuppet.capture.features import FrameFeatures
-from facepuppet.capture.pose import (
-    FRONTAL_ROTATION,
-    STABLE_FEATURES,
-    HeadPose,
-    estimate_pose,
-    points_in_head,
-    pose_point_index,
-)
-from facepuppet.filters import OneEuro, OneEuroConfig
+from facepuppet.capture.pose import STABLE_FEATURES, estimate_pose, points_in_head, pose_point_index
 
 __all__ = ["ColorTrackerConfig", "ColorTracker", "Measurement", "WARMUP_PARTS"]
 
@@ -88,10 +79,6 @@ _EYE2 = np.eye(2)
 _CROP_ORIGIN = np.asarray(CROP_EXTENT[:2], dtype=float)
 _CHEEK_L, _CHEEK_R = BOX_NAMES.index("cheek_left"), BOX_NAMES.index("cheek_right")
 _EYE_L, _EYE_R = BOX_NAMES.index("eye_left"), BOX_NAMES.index("eye_right")
-#: Two layout points (curve, control point) the placement of the layout is read back from: the outer eye corners.
-_PLACED_PAIR = ((_IDX["eye_right_upper"], 3), (_IDX["eye_left_upper"], 3))
-#: One-Euro filter of the yaw and pitch (radians): read every frame, a 60 deg/s turn lags 1/3 frame at 30 /s.
-TURN_FILTER = OneEuroConfig(min_cutoff=1.0, beta=10.0)
 
 
 @dataclass
@@ -174,8 +161,7 @@ class ColorTracker:
         self._smoother = CurveSmoother(config.filters, lids=bool(self._outliner.lids), shaped=np.concatenate(
             [FAMILIES[f] for f in sorted(self.profile.shapes)] or [np.zeros(0, int)]))
         self._acquirer = Acquirer(self, self._place, self._template, self._eye_window)
-        self._turn_filter = OneEuro(TURN_FILTER)
-        self._nose_turn = NoseTurn()
+        self._turn = HeadTurn(profile.head, self._layout_px, px)
 
     # -- what other modules read -----------------------------------------------------------------------
     @property
@@ -251,7 +237,7 @@ class ColorTracker:
                 self.seen = None
                 return FrameFeatures.lost(len(CURVE_NAMES), len(POINT_NAMES))
         curves = self._smoother(curves, result.frame, timestamp_ms)
-        return self._features(curves, (w, h), self._turn(timestamp_ms, rgb))
+        return self._features(curves, (w, h), self._turn(timestamp_ms, rgb, self.seen))
 
     def reset(self) -> None:
         """Start a new take: every state the tracker keeps from frame to frame is set up again as a new
@@ -401,46 +387,17 @@ class ColorTracker:
                            seen=(crop, A, placed) if outline else None)
 
     # -- internals -------------------------------------------------------------------------------------
-    def _turn(self, timestamp_ms: int, rgb: np.ndarray) -> np.ndarray | None:
-        """The head's (yaw, pitch) in radians read off the last crop by the profile's head-turn model
-        (:mod:`.head_turn`), or without one measured on the nose in the frame ``rgb`` (:mod:`.nose_turn`),
-        filtered over time; None before a face is measured."""
-        if self.seen is None:
-            return None
-        crop, A, placed = self.seen
-        nose = self._nose_turn
-        if self.profile.head or nose.due:
-            (c0, k0), (c1, k1) = _PLACED_PAIR
-            S = similarity_of_pairs(self._layout_px[[c0, c1], [k0, k1]], placed[[c0, c1], [k0, k1]])
-            px = self.config.measure.px
-            raw = (apply_turn_model(self.profile.head, crop, S, px) if self.profile.head
-                   else nose(rgb, face_to_image(A, S, px, CROP_EXTENT[:2])))
-        else:
-            raw = nose.skip()
-        fol = self._follow
-        if fol.turn_ms is None:
-            self._turn_filter.restart(raw)
-            turn = raw
-        else:
-            turn = self._turn_filter(raw, max(timestamp_ms - fol.turn_ms, 1) / 1000.0)
-        fol.turn_ms = timestamp_ms
-        return turn
-
     def _features(self, curves: np.ndarray, size: tuple[int, int], turn: np.ndarray | None = None) -> FrameFeatures:
         # The stable landmarks are the layout's, placed by the face frame (a similarity): they show the head's
         # roll, size and place but not a turn, so the pose is solved upright (estimate_pose, out_of_plane); the
-        # turn (yaw, pitch) read by the profile's head-turn model or measured on the nose is composed with that roll.
+        # turn (yaw, pitch) read by the profile's head-turn model or measured on the nose is put on it (.turn).
         uv = curves[_POSE_POINTS]
         pose = estimate_pose(uv, size, previous=self._follow.pose, out_of_plane=False)
         if not pose:
             pose = estimate_pose(uv, size, out_of_plane=False)
         self._follow.pose = pose if pose else None
         if pose and turn is not None:
-            # the model's turn and the share of the head's place that goes with it (:func:`.head_turn.turn_angles`)
-            inner = 0.5 * (curves[_IDX["eye_right_upper"], 0] + curves[_IDX["eye_left_upper"], 0])
-            yaw, pitch = turn_angles(turn, inner, pose.camera_matrix, RAY_SHARE if self.profile.head else LOOK_SHARE)
-            pose = HeadPose(FRONTAL_ROTATION @ turn_rotation(yaw, pitch, float(pose.angles()[2])),
-                            pose.translation, pose.camera_matrix, pose.reprojection_error)
+            pose = self._turn.posed(pose, turn, curves)
         if pose:
             points = points_in_head(curves, pose)
             return FrameFeatures(True, curves, pose.rotation, pose.translation, points)
@@ -470,7 +427,8 @@ class ColorTracker:
         fol = self._follow
         self.searches += 1
         self._smoother.reset()
-        fol.pose = fol.turn_ms = None
+        fol.pose = None
+        self._turn.restart()
         self._place.mouth_offset, fol.misses, fol.correction = np.zeros(2), 0, None
         self._follower.reset()
         best = self._acquirer.find(rgb, last)
