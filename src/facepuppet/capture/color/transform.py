@@ -21,7 +21,7 @@ import numpy as np
 
 from facepuppet._util.jit import INNER, KERNEL
 from facepuppet.capture.color.face import SKIN_Y_MAX, SKIN_Y_MIN
-from facepuppet.capture.color.rules.kernels import median_of_boxes, top_of_boxes
+from facepuppet.capture.color.rules.kernels import median, median_of_boxes, top_of_boxes
 
 __all__ = [
     "LipHue",
@@ -303,7 +303,7 @@ def _skin_level(crop: np.ndarray, boxes: np.ndarray) -> float:
             for x in range(max(boxes[b, 0], 0), min(boxes[b, 2], w)):
                 vals[n] = max(crop[y, x, 0], crop[y, x, 1], crop[y, x, 2])
                 n += 1
-    return np.median(vals[:n]) if n else DARK_SKIN[1]
+    return median(vals[:n]) if n else DARK_SKIN[1]
 
 
 #: The HSV image :func:`_feature_intensity` is given when the hue term is not used (it is not read).
