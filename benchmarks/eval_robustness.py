@@ -40,11 +40,11 @@ a made-up scene, the kind of room that fools a skin-colour model:
 - ``stage_hand``: a dark stage with props, the frame shrunk to 0.42 (a face about 90-115 px wide), a hand of the
   performer's skin colour passing over the lower face twice.
 
-Drawn on the face (around MediaPipe's curves of each frame):
+Drawn on the face (around MediaPipe's curves of each frame; ``drawn.py``):
 
-- ``beard``: a dark moustache from under the nose down to the upper lip and a short beard from under the lower
-  lip to the chin, of hair strands that move with the face (an older performer's face: dark hair around the
-  mouth, where the mouth's rules look for the lips).
+- ``beard``: a dark moustache and a short beard of hair strands that move with the face;
+- ``glasses``: thick dark rims, the bridge and the arms, and a bright reflection that comes and goes on the
+  lenses, sliding across them.
 
 Each copy is written as MPEG-4 into a temporary folder, tracked with ``--backend color`` and the built-in
 profile (no landmark model: the copies test the colour pipeline alone), and scored by
@@ -53,7 +53,7 @@ The bars of the shared clips are NME <= 0.05, jitter ratio <= 1.5, coverage >= 0
 
 Run: ``python benchmarks/eval_robustness.py [--clips performer_a performer_c] [--variants dim warm noisy small
 face80 cool rolled mirrored portrait darker deep lowres backlit haze long short grey hd wood beige skin_object poster
-stage_hand beard] [--assets PATH] [--jobs 2]``
+stage_hand beard glasses] [--assets PATH] [--jobs 2]``
 (about 20 s per copy of a or c on one core, MediaPipe's reference included; ``performer_b_exaggerated`` is
 three times as long).
 """
@@ -71,11 +71,14 @@ from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import drawn  # noqa: E402  (this folder's module of things drawn on the face)
+
 ROOT = Path(__file__).resolve().parents[1]
 VARIANTS = ("dim", "warm", "noisy", "small", "face80", "cool", "rolled", "mirrored", "portrait", "darker", "deep",
             "lowres", "backlit", "haze", "long", "short", "grey", "hd")
 BACKGROUNDS = ("wood", "beige", "skin_object", "poster", "stage_hand")
-DRAWN = ("beard",)
+DRAWN = tuple(drawn.DRAWN)
 #: The face cut out: an oval centred this far below the eyes, with these half-axes (eye-centre distances).
 FACE_OVAL = (0.8, 1.2, 1.75)
 STAGE_SCALE = 0.42          # the stage copy's frame scale (a face about 90-115 px wide)
@@ -323,79 +326,6 @@ def composited(src: Path, variant: str, model: str):
         mp.close()
 
 
-#: The beard copy's hair: RGB colour, the most it covers (alpha) and the strands' size (eye-centre distances).
-HAIR_RGB, HAIR_ALPHA, HAIR_STRAND = (45.0, 34.0, 28.0), 0.92, 0.03
-
-
-def _hair_texture(size: int, rng: np.random.Generator) -> np.ndarray:
-    """(size, size) float32 in [0, 1]: short dark strands, drawn once in a face space of ``size`` pixels for 2
-    eye-centre distances."""
-    import cv2
-
-    tex = np.zeros((size, size), np.float32)
-    length = HAIR_STRAND * size / 2.0
-    for _ in range(size * size // 8):
-        x, y = rng.uniform(0, size, 2)
-        a = rng.normal(np.pi / 2, 0.35)
-        d = length * rng.uniform(0.5, 1.5) * np.array([np.cos(a), np.sin(a)])
-        cv2.line(tex, (int(x), int(y)), (int(x + d[0]), int(y + d[1])), float(rng.uniform(0.6, 1.0)), 1, cv2.LINE_AA)
-    return np.clip(cv2.GaussianBlur(tex, (0, 0), 0.6) * 1.6, 0.0, 1.0)
-
-
-def bearded(src: Path, model: str):
-    """The frames (RGB uint8) of the ``beard`` copy of the video ``src``: a moustache and a short beard drawn
-    around MediaPipe's (``model``) lips and nostrils of each frame, their strands fixed to the face (placed by
-    the eyes); a frame without a face is left as it is."""
-    import cv2
-
-    from facepuppet.capture.curves import CURVE_NAMES, bezier_points
-    from facepuppet.capture.tracking import make_tracker
-    from facepuppet.io.frames import open_media
-
-    k = {n: i for i, n in enumerate(CURVE_NAMES)}
-    size = 400                                      # face space: eye centres at (100, 100) and (300, 100)
-    tex = _hair_texture(size, np.random.default_rng(0))
-    hair = np.array(HAIR_RGB, np.float32)
-    mp = make_tracker("mediapipe", model_path=model, running_mode="video")
-    try:
-        with open_media(src) as frames:
-            for i, rgb in enumerate(frames):
-                f = mp.track(rgb, int(round(i * 1000 / frames.fps)))
-                if not f.valid:
-                    yield rgb
-                    continue
-                c = f.curves
-                right, left = (c[k[n]][[0, 3]].mean(axis=0) for n in ("eye_right_upper", "eye_left_upper"))
-                unit = float(np.linalg.norm(left - right))
-                across = (left - right) / unit
-                down = np.array([-across[1], across[0]])
-                upper, lower = bezier_points(c[k["lip_upper_outer"]], 16), bezier_points(c[k["lip_lower_outer"]], 16)
-                nose = np.concatenate([bezier_points(c[k["nostril_right"]], 6), bezier_points(c[k["nostril_left"]], 6)])
-                corner_r, corner_l = upper[0], upper[-1]
-                # Moustache: from just under the nostrils, reaching past the mouth's corners, down to the upper lip.
-                top = nose + 0.06 * unit * down
-                wing = 0.12 * unit
-                moustache = np.concatenate([top, [corner_l + wing * across + 0.1 * unit * down], upper[::-1],
-                                            [corner_r - wing * across + 0.1 * unit * down]])
-                # Beard: from a little under the lower lip to the chin, as wide as the mouth and a little more.
-                chin = 0.5 * (corner_r + corner_l) + 1.05 * unit * down
-                below = lower + 0.08 * unit * down
-                beard = np.concatenate([below, [corner_l + 0.25 * unit * across + 0.5 * unit * down,
-                                                chin + 0.45 * unit * across, chin - 0.45 * unit * across,
-                                                corner_r - 0.25 * unit * across + 0.5 * unit * down]])
-                mask = np.zeros(rgb.shape[:2], np.float32)
-                for poly in (moustache, beard):
-                    cv2.fillPoly(mask, [np.round(poly * 4).astype(np.int32)], 1.0, cv2.LINE_AA, shift=2)
-                mask = cv2.GaussianBlur(mask, (0, 0), 0.08 * unit)
-                turn = np.array([[across[0], -across[1]], [across[1], across[0]]]) * unit / 200.0
-                S = np.column_stack([turn, right - turn @ [100.0, 100.0]])
-                strands = cv2.warpAffine(tex, S, rgb.shape[1::-1], flags=cv2.INTER_LINEAR)
-                a = (HAIR_ALPHA * mask * (0.55 + 0.45 * strands))[..., None]
-                yield np.clip(a * hair + (1.0 - a) * rgb.astype(np.float32), 0, 255).astype(np.uint8)
-    finally:
-        mp.close()
-
-
 def write_copy(src: Path, variant: str, out: Path, model: str | None = None) -> None:
     """Write the ``variant`` copy of the video ``src`` to ``out`` (MPEG-4, same rate, same size but for
     ``lowres``); the background and drawn copies and ``face80`` need MediaPipe's ``model`` file."""
@@ -407,7 +337,7 @@ def write_copy(src: Path, variant: str, out: Path, model: str | None = None) -> 
     unit = face_unit(src, model) if variant == "face80" else None
     writer = None
     scenes = composited(src, variant, model) if variant in BACKGROUNDS else (
-        bearded(src, model) if variant in DRAWN else None)
+        drawn.DRAWN[variant](src, model) if variant in DRAWN else None)
     while True:
         ok, bgr = cap.read()
         if not ok:

@@ -2,6 +2,9 @@
 eyes: dark rims (thin and thick, with a bridge and the arms) and a bright reflection on the lenses. The brows
 and lids must stay on their features (near MediaPipe's curves on the original frames) behind them."""
 
+import importlib.util
+from pathlib import Path
+
 import cv2
 import numpy as np
 import pytest
@@ -9,14 +12,16 @@ import pytest
 from facepuppet.capture.color.tracker import ColorTracker
 from facepuppet.capture.curves import CURVE_NAMES, bezier_points
 
+_spec = importlib.util.spec_from_file_location(
+    "drawn", Path(__file__).resolve().parents[3] / "benchmarks" / "drawn.py")
+drawn = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(drawn)
+
 _IDX = {n: i for i, n in enumerate(CURVE_NAMES)}
 BROWS_LIDS = ("brow_left", "brow_right", "eye_left_upper", "eye_left_lower", "eye_right_upper", "eye_right_lower")
 CLIPS = ("performer_a", "performer_b_exaggerated", "performer_c")
-#: A lens: centred this far below the eye centre, with these half-width and half-height (eye-centre distances).
-LENS = (0.06, 0.42, 0.27)
-#: Rim thickness (eye-centre distances) of each kind of glasses.
-RIMS = {"thin rims": 0.02, "thick rims": 0.065, "reflection": 0.02}
-RIM_GREY = 28.0
+#: Rim thickness (eye-centre distances) and the reflection's share of white of each kind of glasses.
+RIMS = {"thin rims": (0.02, 0.0), "thick rims": (0.065, 0.0), "reflection": (0.02, 0.6)}
 FRAMES = 60                 # frames taken from each clip (every second of its first 120)
 
 
@@ -29,46 +34,10 @@ def _nme(ours, ref, names=BROWS_LIDS):
 
 
 def wear_glasses(rgb, curves, kind):
-    """The RGB frame (H, W, 3) uint8 with glasses of ``kind`` (:data:`RIMS`) drawn around the eyes of the
-    reference curves (C, 4, 2): a lens outline (a rounded rectangle, :data:`LENS`) per eye, the bridge between
-    them and the arms reaching out to the sides; for "reflection", a bright band across each lens as well."""
-    right = curves[_IDX["eye_right_upper"]][[0, 3]].mean(axis=0)
-    left = curves[_IDX["eye_left_upper"]][[0, 3]].mean(axis=0)
-    d = float(np.linalg.norm(left - right))
-    across = (left - right) / d
-    down = np.array([-across[1], across[0]])
-    f = 4.0                                 # sub-pixel drawing: coordinates times 4 (thickness in pixels)
-    img = rgb.astype(np.float32)
-    rim = np.zeros(rgb.shape[:2], np.float32)
-    t = max(int(round(RIMS[kind] * d)), 1)
-    u = np.linspace(0, 2 * np.pi, 48, endpoint=False)
-    # A superellipse (exponent 4): a rounded rectangle.
-    sx = np.sign(np.cos(u)) * np.abs(np.cos(u)) ** 0.5
-    sy = np.sign(np.sin(u)) * np.abs(np.sin(u)) ** 0.5
-    lenses = []
-    for side, centre in ((-1, right), (1, left)):
-        c = centre + LENS[0] * d * down
-        pts = c + (LENS[1] * d * sx)[:, None] * across + (LENS[2] * d * sy)[:, None] * down
-        lenses.append(pts)
-        cv2.polylines(rim, [np.round(pts * f).astype(np.int32)], True, 1.0, t, cv2.LINE_AA, shift=2)
-        outer = c + side * LENS[1] * d * across - 0.1 * d * down
-        arm = np.array([outer, outer + side * 0.45 * d * across])
-        cv2.polylines(rim, [np.round(arm * f).astype(np.int32)], False, 1.0, t, cv2.LINE_AA, shift=2)
-    mid = 0.5 * (right + left)
-    bridge = np.array([right + LENS[1] * d * across, mid - 0.04 * d * down, left - LENS[1] * d * across])
-    cv2.polylines(rim, [np.round(bridge * f).astype(np.int32)], False, 1.0, t, cv2.LINE_AA, shift=2)
-    if kind == "reflection":
-        glare = np.zeros(rgb.shape[:2], np.float32)
-        for pts in lenses:
-            c = pts.mean(axis=0)
-            band = np.array([c - 0.3 * d * across - 0.2 * d * down, c - 0.1 * d * across - 0.2 * d * down,
-                             c + 0.2 * d * across + 0.2 * d * down, c + 0.0 * d * across + 0.2 * d * down])
-            cv2.fillPoly(glare, [np.round(band * f).astype(np.int32)], 0.6, cv2.LINE_AA, shift=2)
-        glare = cv2.GaussianBlur(glare, (0, 0), 0.03 * d)[..., None]
-        img = img * (1.0 - glare) + 245.0 * glare
-    a = np.clip(rim, 0, 1)[..., None]
-    img = img * (1.0 - a) + RIM_GREY * a
-    return np.clip(img + 0.5, 0, 255).astype(np.uint8)
+    """The RGB frame with glasses of ``kind`` (:data:`RIMS`) drawn around the eyes of the reference curves
+    (``benchmarks/drawn.py``: lenses, bridge and arms; for "reflection", a bright band across each lens)."""
+    rim, glare = RIMS[kind]
+    return drawn.wear_glasses(rgb, curves, rim, glare)
 
 
 @pytest.fixture(scope="module")
