@@ -51,6 +51,7 @@ from facepuppet.capture.color.measure import Measurement, Placement
 from facepuppet.capture.color.outliner import Outliner
 from facepuppet.capture.color.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
 from facepuppet.capture.color.refind import LostFace
+from facepuppet.capture.color.rims import RIM_CHECK_EVERY, without_rims
 from facepuppet.capture.color.rules import BOX_NAMES, move_boxes
 from facepuppet.capture.color.shape_models import FAMILIES
 from facepuppet.capture.color.smoothing import CurveSmoother
@@ -227,6 +228,7 @@ class ColorTracker:
         curves, fol.frame, self.seen = result.curves, result.frame, result.seen
         # A face just found: its reference crop was taken in the corrected frame, so the correction starts afresh.
         fol.correction = result.correction if followed else np.array(NO_CORRECTION)
+        fol.rims_wait = fol.rims_wait if followed else 0        # a face just found is looked at for rims at once
         # Now and then whether the crop still looks like a face; a face found again first at the next frame it is
         # followed in (it may sit off the face: the brows taken for its eyes, say).
         fol.check_in = 1 if fol.found_again and not followed else fol.check_in - 1
@@ -339,6 +341,13 @@ class ColorTracker:
         if place.light is not None:
             crop = cv2.transform(crop, place.light)
         crop = without_glare(crop, self._cheek_boxes, self._eye_boxes, px)      # a lens's reflection: unknown
+        fol = self._follow
+        if not follow or fol.rims_wait <= 0:
+            # Glasses' rims taken out; a followed face without them is looked at again every RIM_CHECK_EVERY frames.
+            crop, worn = without_rims(crop, self._eye_boxes, px)
+            fol.rims_wait = 0 if worn or not follow else RIM_CHECK_EVERY - 1
+        else:
+            fol.rims_wait -= 1
         skin = self._follow.skin = self._skin_ok(crop)
         C = self.intensity(crop, followed=follow)
         # The eyes' correction of the followed frame (a similarity in crop pixels, as a, b, tx, ty), smoothed
