@@ -93,19 +93,20 @@ def rim_mask(crop: np.ndarray, eyes: np.ndarray, unit: float) -> tuple[np.ndarra
         return None, y0
     grey = cv2.cvtColor(np.ascontiguousarray(crop[y0:y1]), cv2.COLOR_RGB2GRAY)
     light = cv2.morphologyEx(grey, cv2.MORPH_CLOSE, _square(_value("reach") * unit), borderType=cv2.BORDER_REPLICATE)
-    below = light.astype(np.int16) - grey
-    dark = (below > np.maximum(_value("dark") * light, MIN_DARK)).astype(np.uint8)
+    below = cv2.subtract(light, grey)                   # a closing is at least the grey: no level is lost
+    dark = ((below > MIN_DARK) & (below.astype(np.float32) > _value("dark") * light)).astype(np.uint8)
     if not dark.any():
         return None, y0
     thick = cv2.dilate(cv2.morphologyEx(dark, cv2.MORPH_OPEN, _disc(_value("thick") * unit)), _square(3))
     thin = dark & (1 - thick)
     n, labels, stats, _ = cv2.connectedComponentsWithStats(thin, connectivity=8)
     w, h = stats[1:, cv2.CC_STAT_WIDTH], stats[1:, cv2.CC_STAT_HEIGHT]
-    share = np.bincount(labels.ravel(), (below / np.maximum(light, 1.0)).ravel(), n)[1:] / np.maximum(
-        stats[1:, cv2.CC_STAT_AREA], 1)
-    keep = np.flatnonzero(((w >= _value("across") * unit)
-                           | ((w >= _value("wide") * unit) & (h >= _value("tall") * unit)))
-                          & (share >= _value("strong"))) + 1
+    shaped = np.flatnonzero((w >= _value("across") * unit)
+                            | ((w >= _value("wide") * unit) & (h >= _value("tall") * unit))) + 1
+    if not shaped.size:
+        return None, y0
+    share = np.bincount(labels.ravel(), (below / np.maximum(light, 1.0)).ravel(), n)
+    keep = shaped[share[shaped] >= _value("strong") * np.maximum(stats[shaped, cv2.CC_STAT_AREA], 1)]
     if not keep.size:
         return None, y0
     lines = np.isin(labels, keep).astype(np.uint8)
