@@ -51,9 +51,9 @@ RIMS = {
 }
 #: Least darkness (grey levels) of a rim's pixel under its surroundings' light, whatever the light.
 MIN_DARK = 12
-#: Frames between looks for rims on a followed face whose crop had none (glasses are put on now and then; a face
-#: with rims is looked at every frame).
-RIM_CHECK_EVERY = 10
+#: Frames between looks for rims on a followed face that has shown none since it was found (glasses are put on
+#: now and then; a face that has shown rims is looked at every frame).
+RIM_CHECK_EVERY = 30
 
 
 def _value(name: str) -> float:
@@ -82,6 +82,12 @@ def _band(crop: np.ndarray, eyes: np.ndarray, unit: float) -> tuple[int, int]:
     return y0, y1
 
 
+def _longest_run(flags: np.ndarray) -> int:
+    """Length of the longest run of True in the 1-D bool array ``flags``."""
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], flags.astype(np.int8), [0]))))
+    return int((edges[1::2] - edges[::2]).max()) if edges.size else 0
+
+
 def rim_mask(crop: np.ndarray, eyes: np.ndarray, unit: float) -> tuple[np.ndarray | None, int]:
     """The rims' pixels of a face crop: ((y1 - y0, W) uint8 mask (255) of the rows from ``y0`` on, y0), or
     (None, y0) where there are none (module notes).
@@ -99,17 +105,22 @@ def rim_mask(crop: np.ndarray, eyes: np.ndarray, unit: float) -> tuple[np.ndarra
         return None, y0
     thick = cv2.dilate(cv2.morphologyEx(dark, cv2.MORPH_OPEN, _disc(_value("thick") * unit)), _square(3))
     thin = dark & (1 - thick)
+    if _longest_run(thin.any(axis=0)) < min(_value("wide"), _value("across")) * unit:
+        return None, y0                 # no line spans that many columns: none is that wide
     n, labels, stats, _ = cv2.connectedComponentsWithStats(thin, connectivity=8)
     w, h = stats[1:, cv2.CC_STAT_WIDTH], stats[1:, cv2.CC_STAT_HEIGHT]
     shaped = np.flatnonzero((w >= _value("across") * unit)
                             | ((w >= _value("wide") * unit) & (h >= _value("tall") * unit))) + 1
     if not shaped.size:
         return None, y0
-    share = np.bincount(labels.ravel(), (below / np.maximum(light, 1.0)).ravel(), n)
+    on = thin > 0
+    share = np.bincount(labels[on], below[on] / np.maximum(light[on], 1.0), n)
     keep = shaped[share[shaped] >= _value("strong") * np.maximum(stats[shaped, cv2.CC_STAT_AREA], 1)]
     if not keep.size:
         return None, y0
-    lines = np.isin(labels, keep).astype(np.uint8)
+    chosen = np.zeros(n, np.uint8)
+    chosen[keep] = 1
+    lines = chosen[labels]
     # A lens's outline encloses the eye, whose lashes or lid may touch its inner edge: only the pixels within
     # ``ring`` of the outside of the lines with what they enclose filled in are the rims' (the lines' small gaps
     # closed first: a reflection may break an outline).
@@ -130,14 +141,23 @@ def without_rims(crop: np.ndarray, eyes: np.ndarray, unit: float) -> tuple[np.nd
     mask, y0 = rim_mask(crop, eyes, unit)
     if mask is None:
         return crop, False
-    y1 = y0 + mask.shape[0]
-    rows = np.ascontiguousarray(crop[y0:y1]).astype(np.float32)
-    seen = (mask == 0).astype(np.float32)
     sigma = max(_value("fill") * unit, 1.0)
-    total = cv2.GaussianBlur(rows * seen[..., None], (0, 0), sigma, borderType=cv2.BORDER_REPLICATE)
-    weight = cv2.GaussianBlur(seen, (0, 0), sigma, borderType=cv2.BORDER_REPLICATE)
-    sel = mask > 0
+    # The Gaussian's reach (OpenCV's kernel for float images spans 4 sigma each way): the mean around each rim
+    # pixel reads the band's pixels within it, so only the mask's box grown by that much is blurred.
+    reach = int(np.ceil(4.0 * sigma)) + 1
+    rows_on, cols_on = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    h, w = mask.shape
+    r0, r1 = max(rows_on[0] - reach, 0), min(rows_on[-1] + 1 + reach, h)
+    c0, c1 = max(cols_on[0] - reach, 0), min(cols_on[-1] + 1 + reach, w)
+    sub = mask[r0:r1, c0:c1]
+    seen = (sub == 0).astype(np.float32)
+    both = np.empty(sub.shape + (4,), np.float32)
+    both[..., :3] = crop[y0 + r0:y0 + r1, c0:c1] * seen[..., None]
+    both[..., 3] = seen
+    # Each rim pixel's mean of the others around it: blurred colour over blurred weight (one 4-channel blur).
+    blur = cv2.GaussianBlur(both, (0, 0), sigma, borderType=cv2.BORDER_REPLICATE)
+    sel = sub > 0
     out = crop.copy()
-    band = out[y0:y1]
-    band[sel] = np.clip(total[sel] / np.maximum(weight[sel], 1e-3)[:, None] + 0.5, 0, 255).astype(np.uint8)
+    box = out[y0 + r0:y0 + r1, c0:c1]
+    box[sel] = np.clip(blur[sel, :3] / np.maximum(blur[sel, 3], 1e-3)[:, None] + 0.5, 0, 255).astype(np.uint8)
     return out, True

@@ -228,7 +228,8 @@ class ColorTracker:
         curves, fol.frame, self.seen = result.curves, result.frame, result.seen
         # A face just found: its reference crop was taken in the corrected frame, so the correction starts afresh.
         fol.correction = result.correction if followed else np.array(NO_CORRECTION)
-        fol.rims_wait = fol.rims_wait if followed else 0        # a face just found is looked at for rims at once
+        if not followed:                # a face just found is looked at for rims at once
+            fol.rims, fol.rims_wait = False, 0
         # Now and then whether the crop still looks like a face; a face found again first at the next frame it is
         # followed in (it may sit off the face: the brows taken for its eyes, say).
         fol.check_in = 1 if fol.found_again and not followed else fol.check_in - 1
@@ -342,10 +343,12 @@ class ColorTracker:
             crop = cv2.transform(crop, place.light)
         crop = without_glare(crop, self._cheek_boxes, self._eye_boxes, px)      # a lens's reflection: unknown
         fol = self._follow
-        if not follow or fol.rims_wait <= 0:
-            # Glasses' rims taken out; a followed face without them is looked at again every RIM_CHECK_EVERY frames.
+        if not follow or fol.rims or fol.rims_wait <= 0:
+            # Glasses' rims taken out: in every frame of a face they were seen on since it was found, else in
+            # every RIM_CHECK_EVERY-th (and in every candidate of a search).
             crop, worn = without_rims(crop, self._eye_boxes, px)
-            fol.rims_wait = 0 if worn or not follow else RIM_CHECK_EVERY - 1
+            if follow:
+                fol.rims, fol.rims_wait = fol.rims or worn, RIM_CHECK_EVERY - 1
         else:
             fol.rims_wait -= 1
         skin = self._follow.skin = self._skin_ok(crop)
