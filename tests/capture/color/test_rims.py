@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 import pytest
 
-from facepuppet.capture.color.rims import RIMS, rim_mask, without_rims
+from facepuppet.capture.color.rims import RIM_CHECK_EVERY, RIM_REUSE, RIMS, Rims, rim_mask, without_rims
 
 UNIT = 48.0                         # crop pixels per face unit, the tracker's
 SIZE = (125, 134)                   # crop width, height
@@ -126,3 +126,24 @@ def test_faint_rims_are_left_as_they_are():
     drawn = _glasses(img, xs)
     img[drawn > 0] = np.array(SKIN, np.float32) * 0.7
     assert rim_mask(_u8(img), EYE_BOXES, UNIT)[0] is None
+
+
+def test_a_followed_face_is_looked_at_now_and_then_until_it_shows_rims():
+    img, xs = _face()
+    bare = _u8(img)
+    _glasses(img, xs)
+    worn = _u8(img)
+    rims = Rims()
+    # A face followed without glasses is looked at in its first frame and then every RIM_CHECK_EVERY frames;
+    # glasses put on in between are taken out from the next look on, then in every frame.
+    assert rims(bare, EYE_BOXES, UNIT, followed=True) is bare
+    for _ in range(RIM_CHECK_EVERY - 1):
+        assert rims(worn, EYE_BOXES, UNIT, followed=True) is worn
+    for _ in range(3 * RIM_REUSE):
+        out = rims(worn, EYE_BOXES, UNIT, followed=True)
+        assert out is not worn and np.array_equal(out, without_rims(worn, EYE_BOXES, UNIT)[0])
+    # A search's candidate is looked at afresh, whatever the followed face showed; a face just found at once.
+    rims.restart()
+    assert rims(bare, EYE_BOXES, UNIT, followed=False) is bare
+    assert not np.array_equal(rims(worn, EYE_BOXES, UNIT, followed=False), worn)
+    assert not np.array_equal(rims(worn, EYE_BOXES, UNIT, followed=True), worn)

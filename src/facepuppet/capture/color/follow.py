@@ -59,8 +59,6 @@ class FollowState:
     found_again: int = 0                    # checks left at which a face found again must look like itself
     check_in: int = 1                       # frames to the next check of the likeness
     pose: object = None                     # the last head pose (the next solve starts there)
-    rims: bool = False                      # whether glasses' rims were seen on the face since it was found
-    rims_wait: int = 0                      # followed frames before the crop is looked at for rims again
     #: The last face lost that had passed its first checks (its frame, size reference and the time it was lost
     #: at), kept while the faces found again after it have not (:attr:`found_again`).
     pending: tuple[FaceFrame, float, float] | None = None

@@ -30,7 +30,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-__all__ = ["RIMS", "MIN_DARK", "RIM_CHECK_EVERY", "rim_mask", "without_rims"]
+__all__ = ["RIMS", "MIN_DARK", "RIM_CHECK_EVERY", "RIM_REUSE", "Rims", "rim_mask", "without_rims", "filled"]
 
 #: The rims' look and extent: name -> (value, unit, meaning).
 RIMS = {
@@ -40,7 +40,7 @@ RIMS = {
     "dark": (0.25, "share", "how much darker than its surroundings' light a rim's pixel is, at least"),
     "strong": (0.5, "share", "how much darker than their light a rim's pixels are on average (a faint rim, thin "
                "or light, barely lights Eq. 1's darkness and is left as it is)"),
-    "fill": (0.08, "face units", "reach (Gaussian sigma) of the mean colour a rim's pixels are filled with"),
+    "fill": (0.08, "face units", "Gaussian sigma of the mean colour a rim's pixels are filled with (cut at 2)"),
     "gap": (0.15, "face units", "gaps in a lens's outline bridged before what it encloses is filled in"),
     "ring": (0.12, "face units", "farthest a rim's pixel lies from the outside of the lines and what they enclose"),
     "thick": (0.13, "face units", "a dark area thicker than this is a feature (iris, lashes, thick brow), no rim"),
@@ -54,6 +54,8 @@ MIN_DARK = 12
 #: Frames between looks for rims on a followed face that has shown none since it was found (glasses are put on
 #: now and then; a face that has shown rims is looked at every frame).
 RIM_CHECK_EVERY = 30
+#: Frames a mask read on a face that has shown rims fills (it is read again on the next).
+RIM_REUSE = 2
 
 
 def _value(name: str) -> float:
@@ -134,30 +136,67 @@ def rim_mask(crop: np.ndarray, eyes: np.ndarray, unit: float) -> tuple[np.ndarra
 
 
 def without_rims(crop: np.ndarray, eyes: np.ndarray, unit: float) -> tuple[np.ndarray, bool]:
-    """The face crop (H, W, 3) uint8 with the glasses' rims (:func:`rim_mask`) filled with the mean colour of the
-    pixels around them that are not the rims' (weighted by a Gaussian of :data:`RIMS` ``fill`` face units: the
-    skin's colour, not a lighter or greyer one the eye search would take for an eye's white), and whether it had
-    any; the crop itself where it had none."""
+    """The face crop (H, W, 3) uint8 with the glasses' rims (:func:`rim_mask`) filled in (:func:`filled`), and
+    whether it had any; the crop itself where it had none."""
     mask, y0 = rim_mask(crop, eyes, unit)
     if mask is None:
         return crop, False
+    return filled(crop, mask, y0, unit), True
+
+
+def filled(crop: np.ndarray, mask: np.ndarray, y0: int, unit: float) -> np.ndarray:
+    """A copy of the face crop (H, W, 3) uint8 whose pixels under ``mask`` ((h, W) uint8, nonzero: a rim's, the
+    crop's rows from ``y0`` on) take the mean colour of the pixels around them that are not under it, weighted by
+    a Gaussian of :data:`RIMS` ``fill`` face units cut at two of them (the skin's colour, not a lighter or greyer
+    one the eye search would take for an eye's white)."""
     sigma = max(_value("fill") * unit, 1.0)
-    # The Gaussian's reach (OpenCV's kernel for float images spans 4 sigma each way): the mean around each rim
-    # pixel reads the band's pixels within it, so only the mask's box grown by that much is blurred.
-    reach = int(np.ceil(4.0 * sigma)) + 1
+    reach = int(round(2.0 * sigma))
     rows_on, cols_on = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    if not rows_on.size:
+        return crop
+    # Only the mask's box grown by the Gaussian's reach is blurred (the mean around each rim pixel reads no more).
     h, w = mask.shape
-    r0, r1 = max(rows_on[0] - reach, 0), min(rows_on[-1] + 1 + reach, h)
-    c0, c1 = max(cols_on[0] - reach, 0), min(cols_on[-1] + 1 + reach, w)
+    r0, r1 = max(rows_on[0] - reach - 1, 0), min(rows_on[-1] + 2 + reach, h)
+    c0, c1 = max(cols_on[0] - reach - 1, 0), min(cols_on[-1] + 2 + reach, w)
     sub = mask[r0:r1, c0:c1]
     seen = (sub == 0).astype(np.float32)
     both = np.empty(sub.shape + (4,), np.float32)
     both[..., :3] = crop[y0 + r0:y0 + r1, c0:c1] * seen[..., None]
     both[..., 3] = seen
     # Each rim pixel's mean of the others around it: blurred colour over blurred weight (one 4-channel blur).
-    blur = cv2.GaussianBlur(both, (0, 0), sigma, borderType=cv2.BORDER_REPLICATE)
+    k = 2 * reach + 1
+    blur = cv2.GaussianBlur(both, (k, k), sigma, borderType=cv2.BORDER_REPLICATE)
     sel = sub > 0
     out = crop.copy()
     box = out[y0 + r0:y0 + r1, c0:c1]
     box[sel] = np.clip(blur[sel, :3] / np.maximum(blur[sel, 3], 1e-3)[:, None] + 0.5, 0, 255).astype(np.uint8)
-    return out, True
+    return out
+
+
+class Rims:
+    """Glasses' rims taken out of the successive face crops of one take: a search's candidates always; a followed
+    face's every :data:`RIM_CHECK_EVERY` frames until it shows rims, then every :data:`RIM_REUSE` frames, the
+    last mask read filling the frames between (the crop is aligned on the face, the rims move with it).
+    """
+
+    def __init__(self):
+        self.restart()
+
+    def restart(self) -> None:
+        """A face just found: looked at for rims at its next followed frame."""
+        self.seen, self.wait = False, 0
+        self._last: tuple[np.ndarray, int] | None = None
+
+    def __call__(self, crop: np.ndarray, eyes: np.ndarray, unit: float, followed: bool) -> np.ndarray:
+        """The crop (H, W, 3) uint8 with the rims filled in (:func:`without_rims`); ``followed``: whether it is
+        the crop of the face followed (else a candidate of a search, looked at afresh, the state untouched)."""
+        if not followed:
+            return without_rims(crop, eyes, unit)[0]
+        if self.wait > 0:
+            self.wait -= 1
+            return crop if self._last is None else filled(crop, *self._last, unit)
+        mask, y0 = rim_mask(crop, eyes, unit)
+        self.seen = self.seen or mask is not None
+        self._last = None if mask is None else (mask, y0)
+        self.wait = (RIM_REUSE if self.seen else RIM_CHECK_EVERY) - 1
+        return crop if mask is None else filled(crop, mask, y0, unit)

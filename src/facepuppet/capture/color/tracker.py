@@ -51,7 +51,7 @@ from facepuppet.capture.color.measure import Measurement, Placement
 from facepuppet.capture.color.outliner import Outliner
 from facepuppet.capture.color.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
 from facepuppet.capture.color.refind import LostFace
-from facepuppet.capture.color.rims import RIM_CHECK_EVERY, without_rims
+from facepuppet.capture.color.rims import Rims
 from facepuppet.capture.color.rules import BOX_NAMES, move_boxes
 from facepuppet.capture.color.shape_models import FAMILIES
 from facepuppet.capture.color.smoothing import CurveSmoother
@@ -149,6 +149,7 @@ class ColorTracker:
         self._place = Placement(anchors_px, anchors_px[:2].mean(axis=0),
                                 calibrated=config.landmarks.anchor_calibration <= 0)
         self._follow = FollowState(check_in=config.follow.check_every)
+        self._rims = Rims()
         #: Fresh searches for the face (acquisitions) since the tracker was made or reset.
         self.searches = 0
         self._follower = Follower(self._size, px, config.follow, both_axes=self._eye_opening)
@@ -228,8 +229,8 @@ class ColorTracker:
         curves, fol.frame, self.seen = result.curves, result.frame, result.seen
         # A face just found: its reference crop was taken in the corrected frame, so the correction starts afresh.
         fol.correction = result.correction if followed else np.array(NO_CORRECTION)
-        if not followed:                # a face just found is looked at for rims at once
-            fol.rims, fol.rims_wait = False, 0
+        if not followed:
+            self._rims.restart()
         # Now and then whether the crop still looks like a face; a face found again first at the next frame it is
         # followed in (it may sit off the face: the brows taken for its eyes, say).
         fol.check_in = 1 if fol.found_again and not followed else fol.check_in - 1
@@ -342,15 +343,7 @@ class ColorTracker:
         if place.light is not None:
             crop = cv2.transform(crop, place.light)
         crop = without_glare(crop, self._cheek_boxes, self._eye_boxes, px)      # a lens's reflection: unknown
-        fol = self._follow
-        if not follow or fol.rims or fol.rims_wait <= 0:
-            # Glasses' rims taken out: in every frame of a face they were seen on since it was found, else in
-            # every RIM_CHECK_EVERY-th (and in every candidate of a search).
-            crop, worn = without_rims(crop, self._eye_boxes, px)
-            if follow:
-                fol.rims, fol.rims_wait = fol.rims or worn, RIM_CHECK_EVERY - 1
-        else:
-            fol.rims_wait -= 1
+        crop = self._rims(crop, self._eye_boxes, px, follow)                   # glasses' rims: filled in
         skin = self._follow.skin = self._skin_ok(crop)
         C = self.intensity(crop, followed=follow)
         # The eyes' correction of the followed frame (a similarity in crop pixels, as a, b, tx, ty), smoothed
