@@ -159,17 +159,15 @@ def filled(crop: np.ndarray, mask: np.ndarray, y0: int, unit: float) -> np.ndarr
     r0, r1 = max(rows_on[0] - reach - 1, 0), min(rows_on[-1] + 2 + reach, h)
     c0, c1 = max(cols_on[0] - reach - 1, 0), min(cols_on[-1] + 2 + reach, w)
     sub = mask[r0:r1, c0:c1]
-    seen = (sub == 0).astype(np.float32)
-    both = np.empty(sub.shape + (4,), np.float32)
-    both[..., :3] = crop[y0 + r0:y0 + r1, c0:c1] * seen[..., None]
-    both[..., 3] = seen
-    # Each rim pixel's mean of the others around it: blurred colour over blurred weight (one 4-channel blur).
+    seen = cv2.compare(sub, 0, cv2.CMP_EQ).astype(np.float32) * np.float32(1.0 / 255.0)   # 1 off the rims
+    colour = cv2.multiply(crop[y0 + r0:y0 + r1, c0:c1].astype(np.float32), cv2.merge((seen, seen, seen)))
+    # Each rim pixel's mean of the others around it: blurred colour over blurred weight.
     k = 2 * reach + 1
-    blur = cv2.GaussianBlur(both, (k, k), sigma, borderType=cv2.BORDER_REPLICATE)
-    sel = sub > 0
+    colour = cv2.GaussianBlur(colour, (k, k), sigma, borderType=cv2.BORDER_REPLICATE)
+    weight = cv2.max(cv2.GaussianBlur(seen, (k, k), sigma, borderType=cv2.BORDER_REPLICATE), 1e-3)
+    mean = cv2.divide(colour, cv2.merge((weight, weight, weight)), dtype=cv2.CV_8U)
     out = crop.copy()
-    box = out[y0 + r0:y0 + r1, c0:c1]
-    box[sel] = np.clip(blur[sel, :3] / np.maximum(blur[sel, 3], 1e-3)[:, None] + 0.5, 0, 255).astype(np.uint8)
+    cv2.copyTo(mean, sub, out[y0 + r0:y0 + r1, c0:c1])
     return out
 
 
