@@ -50,15 +50,7 @@ def clips(assets, face_landmarker):
     mp = make_tracker("mediapipe", model_path=face_landmarker, running_mode="image")
     try:
         for clip in CLIPS:
-            cap = cv2.VideoCapture(str(assets / "video" / f"{clip}.mp4"))
-            frames = []
-            for k in range(2 * FRAMES):
-                ok, bgr = cap.read()
-                if not ok:
-                    break
-                if k % 2 == 0:
-                    frames.append(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
-            cap.release()
+            frames = _frames(assets / "video" / f"{clip}.mp4", 2 * FRAMES)[::2]
             ref = [mp.track(f, 66 * i) for i, f in enumerate(frames)]
             assert all(r.valid for r in ref)
             ref = np.stack([r.curves for r in ref])
@@ -66,6 +58,18 @@ def clips(assets, face_landmarker):
     finally:
         mp.close()
     return out
+
+
+def _frames(path, count):
+    """The first ``count`` frames of the video ``path``, RGB."""
+    cap = cv2.VideoCapture(str(path))
+    frames = []
+    for _ in range(count):
+        ok, bgr = cap.read()
+        assert ok, (path, len(frames))
+        frames.append(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
+    cap.release()
+    return frames
 
 
 def _track_nme(frames, ref, kind=None):
@@ -120,13 +124,7 @@ def test_a_wide_open_mouth_behind_thick_rims(assets, face_landmarker, tmp_path):
     # copy it was found again 0.9 eye distances too low, the brows on the rims' lower bars).
     from facepuppet.capture.tracking import make_tracker
 
-    cap = cv2.VideoCapture(str(assets / "video" / "performer_c.mp4"))
-    frames = []
-    for _ in range(172):
-        ok, bgr = cap.read()
-        assert ok
-        frames.append(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
-    cap.release()
+    frames = _frames(assets / "video" / "performer_c.mp4", 172)
     mp = make_tracker("mediapipe", model_path=face_landmarker, running_mode="video")
     try:
         ref = [mp.track(f, 33 * i) for i, f in enumerate(frames)]
@@ -155,6 +153,6 @@ def test_a_wide_open_mouth_behind_thick_rims(assets, face_landmarker, tmp_path):
         span = np.linalg.norm(eyes[3] - eyes[2])
         off.append(np.linalg.norm(0.5 * (eyes[0] + eyes[1]) - 0.5 * (eyes[2] + eyes[3])) / span)
     off = np.array(off)
-    # Measured: every frame tracked; the eyes' midpoint at most 0.11 eye distances off MediaPipe's from frame 100.
+    # Measured: every frame tracked; the eyes' midpoint at most 0.13 eye distances off MediaPipe's from frame 100.
     assert np.isfinite(off).all(), np.flatnonzero(~np.isfinite(off))
     assert off[100:].max() < 0.25, (100 + int(np.argmax(off[100:])), off[100:].max())
