@@ -170,12 +170,15 @@ def spectacled(src: Path, model: str):
     each frame, and a reflection of up to :data:`GLARE` that rises and falls over the first half of every
     :data:`GLARE_PERIOD` frames while sliding across the lenses; a frame without a face is left as it is."""
     for i, rgb, curves in _faces(src, model):
-        if curves is None:
-            yield rgb
-            continue
-        phase = (i % GLARE_PERIOD) / GLARE_PERIOD
-        glare = GLARE * max(np.sin(2.0 * np.pi * phase), 0.0)
-        yield wear_glasses(rgb, curves, THICK_RIM, glare, 4.0 * phase - 1.0)
+        yield rgb if curves is None else glasses_copy_frame(rgb, curves, i)
+
+
+def glasses_copy_frame(rgb: np.ndarray, curves: np.ndarray, i: int) -> np.ndarray:
+    """Frame ``i`` of the ``glasses`` copy: thick rims on the curves (C, 4, 2) and the reflection of that frame
+    (:func:`spectacled`'s schedule)."""
+    phase = (i % GLARE_PERIOD) / GLARE_PERIOD
+    glare = GLARE * max(np.sin(2.0 * np.pi * phase), 0.0)
+    return wear_glasses(rgb, curves, THICK_RIM, glare, 4.0 * phase - 1.0)
 
 
 #: The drawn copies: name -> frames of the copy of a video, given MediaPipe's model file.

@@ -133,10 +133,7 @@ def test_a_wide_open_mouth_behind_thick_rims(assets, face_landmarker, tmp_path):
     video = tmp_path / "glasses.mp4"
     writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"mp4v"), 30.0, frames[0].shape[1::-1])
     for i, (rgb, r) in enumerate(zip(frames, ref, strict=True)):
-        phase = (i % drawn.GLARE_PERIOD) / drawn.GLARE_PERIOD
-        glare = drawn.GLARE * max(np.sin(2.0 * np.pi * phase), 0.0)
-        writer.write(cv2.cvtColor(drawn.wear_glasses(rgb, r.curves, drawn.THICK_RIM, glare, 4.0 * phase - 1.0),
-                                  cv2.COLOR_RGB2BGR))
+        writer.write(cv2.cvtColor(drawn.glasses_copy_frame(rgb, r.curves, i), cv2.COLOR_RGB2BGR))
     writer.release()
     cap = cv2.VideoCapture(str(video))
     tracker = ColorTracker()

@@ -52,7 +52,7 @@ RIMS = {
 #: Least darkness (grey levels) of a rim's pixel under its surroundings' light, whatever the light.
 MIN_DARK = 12
 #: Frames between looks for rims on a followed face that has shown none since it was found (glasses are put on
-#: now and then; a face that has shown rims is looked at every frame).
+#: now and then; a face that has shown rims is looked at every :data:`RIM_REUSE` frames).
 RIM_CHECK_EVERY = 30
 #: Frames a mask read on a face that has shown rims fills (it is read again on the next).
 RIM_REUSE = 2
