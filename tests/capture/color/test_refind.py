@@ -187,3 +187,36 @@ def test_a_candidate_the_eye_search_turns_far_is_a_face_only_in_a_window():
         assert (got is not None) == kept
         if kept:
             assert abs(got.frame.roll - total) < 1e-9
+
+
+def _window_holding(unit, origin=(200.0, 150.0)):
+    """An upright cascade window centred on ``origin`` whose face's eye-centre distance is ``unit``."""
+    from facepuppet.capture.color.detect import BOX_EYES, FaceWindow
+
+    width = unit / BOX_EYES
+    return FaceWindow(np.array([origin[0] - width / 2, origin[1] - width / 2, width, width]), np.eye(2, 3))
+
+
+class _DarkCrops(_TurningEyes):
+    """A measurer that finds the eyes of every frame it is given where they are, in a crop without skin (black),
+    with a likeness under the skinless candidates' bar."""
+
+    def measure(self, rgb, frame, *, follow, gain, outline=True, correction=None):
+        crop = np.zeros((134, 125, 3), np.uint8)
+        score = 0.5 * self.config.acquire.min_skinless_score
+        return Measurement(None, frame, True, score, np.array([1.0, 0.0, 0.0, 0.0]), (crop, None, None))
+
+
+def test_a_skinless_candidate_little_like_a_face_is_a_face_only_in_a_window():
+    """A candidate without skin on its cheeks or between its brows needs the skinless likeness (the dark scene
+    above a skin-coloured object's edge taken for a pair of eyes), unless a cascade window's face holds it (a
+    face in a cool or dim light the skin models miss, the likeness lowered by a pair of glasses)."""
+    from facepuppet.capture.color.acquire import Acquirer
+    from facepuppet.capture.color.measure import Placement
+
+    rgb = np.zeros((300, 400, 3), np.uint8)
+    for windows, kept in (((), False), ((_window_holding(40.0),), True),
+                          ((_window_holding(40.0, origin=(330.0, 60.0)),), False)):
+        acquirer = Acquirer(_DarkCrops(0.0), Placement(np.zeros((3, 2)), np.zeros(2), calibrated=True), None, (4, 4))
+        got = acquirer.refine(rgb, [_frame()], windows=list(windows))
+        assert (got is not None) == kept

@@ -294,8 +294,14 @@ class Acquirer:
         :data:`REFINE_SIZES` of the candidate's size: a face's brows and mouth taken for its eyes, nor turned by more
         than :data:`REFINE_TURN` unless a cascade window holds it: an eye and a brow, an ear or the hair beside a
         turned head; a window's face is a face, and a window of a copy turned the other way may hold an upright
-        one), or None."""
+        one; none under ``acquire.min_skinless_score`` without skin between the brows (:func:`skin_between_brows`)
+        unless a window holds it: a face in a dim or cool light shows the skin models none, and a pair of glasses'
+        rims lower its likeness), or None."""
         skinless = self.tracker.config.acquire.min_skinless_score
+
+        def held(result: Measurement) -> bool:
+            return any(w.holds(result.frame) for w in windows)
+
         best = None
         for cand in candidates:
             result, start = None, cand
@@ -308,10 +314,11 @@ class Acquirer:
                 continue
             if not REFINE_SIZES[0] <= result.frame.unit / start.unit <= REFINE_SIZES[1]:
                 continue
-            if abs(start.turn_to(result.frame)) > REFINE_TURN and not any(w.holds(result.frame) for w in windows):
+            if abs(start.turn_to(result.frame)) > REFINE_TURN and not held(result):
                 continue
-            if not self.place.skinless_ok and result.score < skinless and not skin_between_brows(
-                    result.seen[0], [self.tracker.profile.skin, SkinModel()], self.tracker.config.measure.px):
+            if not self.place.skinless_ok and result.score < skinless and not held(result) and \
+                    not skin_between_brows(result.seen[0], [self.tracker.profile.skin, SkinModel()],
+                                           self.tracker.config.measure.px):
                 continue
             if best is None or self.value(result, last, windows) > self.value(best, last, windows):
                 best = result
