@@ -122,21 +122,12 @@ def test_a_wide_open_mouth_behind_thick_rims(assets, face_landmarker, tmp_path):
     # wide at frames 110-170. Without the rims taken out of the crop (color/rims.py) the crop's likeness to a face
     # fell under the follower's bar: the face was let go in 13 frames (0-1, 5, 23-28, 50, 72, 102-103; in the whole
     # copy it was found again 0.9 eye distances too low, the brows on the rims' lower bars).
-    from facepuppet.capture.tracking import make_tracker
-
-    frames = _frames(assets / "video" / "performer_c.mp4", 172)
-    mp = make_tracker("mediapipe", model_path=face_landmarker, running_mode="video")
-    try:
-        ref = [mp.track(f, 33 * i) for i, f in enumerate(frames)]
-    finally:
-        mp.close()
-    cap = cv2.VideoCapture(str(_glasses_copy(frames, ref, tmp_path / "glasses.mp4")))
+    frames, ref = _filmed(assets / "video" / "performer_c.mp4", 172, face_landmarker)
     tracker = ColorTracker()
     off = []
-    for i, r in enumerate(ref):
-        ok, bgr = cap.read()
-        assert ok
-        f = tracker.track(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), 33 * i)
+    for i, (rgb, r) in enumerate(zip(_read(_glasses_copy(frames, ref, tmp_path / "glasses.mp4")), ref,
+                                     strict=True)):
+        f = tracker.track(rgb, 33 * i)
         if not f.valid:
             off.append(np.inf)
             continue
@@ -148,6 +139,30 @@ def test_a_wide_open_mouth_behind_thick_rims(assets, face_landmarker, tmp_path):
     # Measured: every frame tracked; the eyes' midpoint at most 0.13 eye distances off MediaPipe's from frame 100.
     assert np.isfinite(off).all(), np.flatnonzero(~np.isfinite(off))
     assert off[100:].max() < 0.25, (100 + int(np.argmax(off[100:])), off[100:].max())
+
+
+def _filmed(path, count, model):
+    """The first ``count`` frames of the video ``path`` (RGB) and MediaPipe's results on them (video mode)."""
+    from facepuppet.capture.tracking import make_tracker
+
+    frames = _frames(path, count)
+    mp = make_tracker("mediapipe", model_path=model, running_mode="video")
+    try:
+        return frames, [mp.track(f, 33 * i) for i, f in enumerate(frames)]
+    finally:
+        mp.close()
+
+
+def _read(path):
+    """The frames of the video ``path``, RGB."""
+    cap = cv2.VideoCapture(str(path))
+    frames = []
+    ok, bgr = cap.read()
+    while ok:
+        frames.append(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
+        ok, bgr = cap.read()
+    cap.release()
+    return frames
 
 
 def _coded(frames, path):
@@ -178,27 +193,12 @@ def test_a_face_behind_thick_rims_in_a_dim_room_is_found_at_its_size(assets, fac
     # search only one whose eye search took the lenses' outer rims for the eyes passed the skinless candidates'
     # bar: the face was taken 1.71-1.77 times its size. The cascade's window holds the face at its size, and a
     # candidate it holds needs no skin (color/acquire.py, ``Acquirer.refine``).
-    from facepuppet.capture.tracking import make_tracker
-
-    frames = _frames(assets / "video" / "performer_b_exaggerated.mp4", 30)
-    mp = make_tracker("mediapipe", model_path=face_landmarker, running_mode="video")
-    try:
-        ref = [mp.track(f, 33 * i) for i, f in enumerate(frames)]
-    finally:
-        mp.close()
-    cap = cv2.VideoCapture(str(_glasses_copy(frames, ref, tmp_path / "glasses.mp4")))
-    dim = []
-    for _ in frames:
-        ok, bgr = cap.read()
-        assert ok
-        dim.append((cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB) * 0.35).astype(np.uint8))
-    cap = cv2.VideoCapture(str(_coded(dim, tmp_path / "dim.mp4")))
+    frames, ref = _filmed(assets / "video" / "performer_b_exaggerated.mp4", 30, face_landmarker)
+    dim = [(rgb * 0.35).astype(np.uint8) for rgb in _read(_glasses_copy(frames, ref, tmp_path / "glasses.mp4"))]
     tracker = ColorTracker()
     sizes = []
-    for i, r in enumerate(ref):
-        ok, bgr = cap.read()
-        assert ok
-        f = tracker.track(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), 33 * i)
+    for i, (rgb, r) in enumerate(zip(_read(_coded(dim, tmp_path / "dim.mp4")), ref, strict=True)):
+        f = tracker.track(rgb, 33 * i)
         sizes.append(_eye_distance(f.curves) / _eye_distance(r.curves) if f.valid else np.nan)
     # Measured: every frame tracked, the eye distance 1.14-1.18 times MediaPipe's (the window's face is a little
     # larger than the face: the rims widen it).
