@@ -28,7 +28,9 @@ such footage from the shared clips and measures it with the shared yardstick:
 - ``grey``: the frame's luma in all three channels (a monochrome or infrared camera, black-and-white footage: no
   skin colour anywhere);
 - ``hd``: the frame enlarged to 1080 rows and set in the middle of a 1920 x 1080 frame, the sides reflected (a
-  1080p webcam or phone close to the face: a face about 2.25 times as many pixels wide).
+  1080p webcam or phone close to the face: a face about 2.25 times as many pixels wide);
+- ``sidelit``: the light falling from the frame's left to 0.3 of it on the right through a soft logistic step at
+  the frame's middle, 0.06 of the width (a window beside the performer: one half of the face in shade).
 
 Background copies: the face (an oval around MediaPipe's eyes on the original frame, feathered) cut out and set on
 a made-up scene, the kind of room that fools a skin-colour model:
@@ -52,8 +54,8 @@ profile (no landmark model: the copies test the colour pipeline alone), and scor
 The bars of the shared clips are NME <= 0.05, jitter ratio <= 1.5, coverage >= 0.98.
 
 Run: ``python benchmarks/eval_robustness.py [--clips performer_a performer_c] [--variants dim warm noisy small
-face80 cool rolled mirrored portrait darker deep lowres backlit haze long short grey hd wood beige skin_object poster
-stage_hand beard glasses] [--assets PATH] [--jobs 2]``
+face80 cool rolled mirrored portrait darker deep lowres backlit haze long short grey hd sidelit wood beige skin_object
+poster stage_hand beard glasses] [--assets PATH] [--jobs 2]``
 (about 20 s per copy of a or c on one core, MediaPipe's reference included; ``performer_b_exaggerated`` is
 three times as long).
 """
@@ -76,7 +78,7 @@ import drawn  # noqa: E402  (this folder's module of things drawn on the face)
 
 ROOT = Path(__file__).resolve().parents[1]
 VARIANTS = ("dim", "warm", "noisy", "small", "face80", "cool", "rolled", "mirrored", "portrait", "darker", "deep",
-            "lowres", "backlit", "haze", "long", "short", "grey", "hd")
+            "lowres", "backlit", "haze", "long", "short", "grey", "hd", "sidelit")
 BACKGROUNDS = ("wood", "beige", "skin_object", "poster", "stage_hand")
 DRAWN = tuple(drawn.DRAWN)
 #: The face cut out: an oval centred this far below the eyes, with these half-axes (eye-centre distances).
@@ -98,6 +100,9 @@ LOWRES_QUALITY = 35         # JPEG quality of the lowres copy's frames
 LONG, SHORT = 1.2, 0.85
 #: The ``hd`` copy's frame (width, height), pixels.
 HD = (1920, 1080)
+#: The ``sidelit`` copy: the light left on the frame's right side (a share of the left side's) and the width of
+#: the soft step between them at the frame's middle (a share of the frame's width).
+SIDE_FLOOR, SIDE_SOFT = 0.3, 0.06
 
 
 def _shrunk(rgb: np.ndarray, f: float) -> np.ndarray:
@@ -205,6 +210,10 @@ def altered(rgb: np.ndarray, variant: str, rng: np.random.Generator, unit: float
         return cv2.copyMakeBorder(tall, -top, h - tall.shape[0] + top, 0, 0, cv2.BORDER_REFLECT)
     elif variant == "grey":
         return np.repeat(cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)[..., None], 3, axis=2)
+    elif variant == "sidelit":
+        columns = np.arange(rgb.shape[1], dtype=np.float32) / rgb.shape[1]
+        light = SIDE_FLOOR + (1.0 - SIDE_FLOOR) / (1.0 + np.exp((columns - 0.5) / SIDE_SOFT))
+        x = x * light[None, :, None]
     elif variant == "hd":
         h, w = rgb.shape[:2]
         big = cv2.resize(rgb, (int(round(w * HD[1] / h)), HD[1]), interpolation=cv2.INTER_CUBIC)

@@ -13,7 +13,9 @@
 - performer_c and performer_b filmed in grey (a monochrome camera: no skin colour anywhere) are found and
   followed, and grey scenes without a face give no face;
 - performer_c and performer_b given a deep complexion (their skin's pixels darkened to a deep brown) are found
-  at about their size and followed.
+  at about their size and followed;
+- performer_c, performer_a and performer_b lit from one side (one half of the face in shade) are followed at
+  their size.
 """
 
 import cv2
@@ -402,3 +404,34 @@ def test_a_deep_complexion(request, who):
     # (its face, pulled back hair beside a light wall, is taken a little large); with the generic weights kept
     # on the dark skin 0.038 / 0.89 and 0.281 / 1.83 (the eyes' search drawn out to the wall beside the face).
     assert np.mean(nme) < 0.055 and 0.85 < np.median(size) < 1.35, (who, np.mean(nme), np.median(size))
+
+
+def _side_lit(rgb, curves, shade_right):
+    """The frame lit from one side (a window beside the performer): the light falls to 0.25 across the face, a
+    logistic step at the eyes' midpoint 0.3 eye-centre distances wide, towards the image's right (or left)."""
+    right, left = _eyes(curves)
+    d = float(np.linalg.norm(left - right))
+    x = (np.arange(rgb.shape[1], dtype=np.float32) - 0.5 * float(right[0] + left[0])) / (0.3 * d)
+    light = 0.25 + 0.75 / (1.0 + np.exp(x if shade_right else -x))
+    return np.clip(rgb * light[None, :, None] + 0.5, 0, 255).astype(np.uint8)
+
+
+@pytest.mark.parametrize("who,shade_right", [("performer", True), ("performer", False), ("performer_a", False),
+                                             ("performer_b", False)])
+def test_a_face_lit_from_one_side(request, who, shade_right):
+    """One half of the face in shade: Eq. 1 reads the shade as darkness, a feature, under one skin level for the
+    whole crop; the light is evened out between the cheeks (:mod:`~facepuppet.capture.color.sides`), and the face
+    is followed at its size near MediaPipe's curves of the frames as lit."""
+    frames, ref, _ = request.getfixturevalue(who)
+    tracker = ColorTracker()
+    nme, size = [], []
+    for i, (rgb, r) in enumerate(zip(frames, ref, strict=True)):
+        f = tracker.track(_side_lit(rgb, r, shade_right), 66 * i)
+        assert f.valid, (who, i)
+        nme.append(_nme(f.curves, r))
+        size.append(float(np.linalg.norm(np.subtract(*_eyes(f.curves))) / np.linalg.norm(np.subtract(*_eyes(r)))))
+    # Measured: NME 0.020 / 0.019 (performer_c shaded right / left), 0.027 (performer_a), 0.035 (performer_b, eye
+    # distance 1.12 of MediaPipe's); with one skin level for the whole crop performer_c lost the face on 14 of the
+    # 60 frames shaded right and was found on none shaded left, performer_a was tracked at 0.177 and performer_b at
+    # 0.057, 1.24 times too large.
+    assert np.mean(nme) < 0.045 and 0.85 < np.median(size) < 1.2, (who, np.mean(nme), np.median(size))

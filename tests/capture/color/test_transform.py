@@ -131,17 +131,17 @@ def test_only_the_generic_profile_has_dark_weights(tmp_path):
     assert replace(generic, net={"w0": np.zeros((11, 10))}).dark_weights is None
 
 
-def test_the_skin_level_reads_only_the_boxes_parts_inside_the_crop():
-    """_skin_level: the median V of the rectangles' pixels inside the crop (a box partly outside counts its
+def test_the_value_median_reads_only_the_boxes_parts_inside_the_crop():
+    """value_median: the median V of the rectangles' pixels inside the crop (a box partly outside counts its
     inside part; one wholly outside none); with no pixel at all, DARK_SKIN's upper level."""
-    from facepuppet.capture.color.transform import DARK_SKIN, _skin_level
+    from facepuppet.capture.color.transform import DARK_SKIN, value_median
 
     crop = np.zeros((20, 30, 3), np.uint8)
     crop[:, :10] = (100, 20, 30)            # V 100 on the left third
     crop[:, 10:] = (30, 200, 40)            # V 200 elsewhere
     inside_left = np.array([[-5, -5, 10, 10]], np.int64)             # its inside part: 10 x 10 px of V 100
-    assert _skin_level(crop, inside_left) == 100.0
+    assert value_median(crop, inside_left) == 100.0
     both = np.array([[-5, 0, 10, 10], [25, 15, 40, 30], [50, 50, 60, 60]], np.int64)  # 100 px of 100, 25 of 200
-    assert _skin_level(crop, both) == 100.0
-    assert _skin_level(crop, np.array([[25, 15, 40, 30]], np.int64)) == 200.0
-    assert _skin_level(crop, np.array([[50, 50, 60, 60]], np.int64)) == DARK_SKIN[1]
+    assert value_median(crop, both) == 100.0
+    assert value_median(crop, np.array([[25, 15, 40, 30]], np.int64)) == 200.0
+    assert value_median(crop, np.array([[50, 50, 60, 60]], np.int64)) == DARK_SKIN[1]

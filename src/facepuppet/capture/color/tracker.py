@@ -54,6 +54,7 @@ from facepuppet.capture.color.refind import LostFace
 from facepuppet.capture.color.rims import Rims
 from facepuppet.capture.color.rules import BOX_NAMES, move_boxes
 from facepuppet.capture.color.shape_models import FAMILIES
+from facepuppet.capture.color.sides import evened_sides
 from facepuppet.capture.color.smoothing import CurveSmoother
 from facepuppet.capture.color.transform import feature_intensity, lip_hue_table, skin_fraction
 from facepuppet.capture.color.turn import HeadTurn
@@ -342,6 +343,7 @@ class ColorTracker:
         crop = cv2.warpAffine(rgb, A, self._size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         if place.light is not None:
             crop = cv2.transform(crop, place.light)
+        crop = evened_sides(crop, self._cheek_boxes)                            # light from one side: evened
         crop = without_glare(crop, self._cheek_boxes, self._eye_boxes, px)      # a lens's reflection: unknown
         crop = self._rims(crop, self._eye_boxes, px, follow)                   # glasses' rims: filled in
         skin = self._follow.skin = self._skin_ok(crop)

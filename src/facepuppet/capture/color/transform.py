@@ -41,6 +41,7 @@ __all__ = [
     "DARK_WEIGHTS",
     "DARK_SKIN",
     "dark_skin_weights",
+    "value_median",
 ]
 
 #: Generic weights (w1, w2, w3, w4) of Eq. 1: magenta, black, value, lip hue.
@@ -282,14 +283,14 @@ def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarr
         :data:`GREY_CONTRAST`, else ``C`` itself.
     """
     if dark is not None:
-        weights = dark_skin_weights(weights, dark, _skin_level(crop, skin_boxes))
+        weights = dark_skin_weights(weights, dark, value_median(crop, skin_boxes))
     hsv = cv2.cvtColor(crop, cv2.COLOR_RGB2HSV) if weights[3] != 0.0 else _NO_HSV
     return _feature_intensity(crop, hsv, np.asarray(weights, dtype=np.float64), hue_table, min_saturation,
                               skin_boxes, feature_boxes, grey_contrast)
 
 
 @nb.njit(**KERNEL)
-def _skin_level(crop: np.ndarray, boxes: np.ndarray) -> float:
+def value_median(crop: np.ndarray, boxes: np.ndarray) -> float:
     """Median HSV value V (8-bit) of the pixels of the rectangles ``boxes`` (N, 4) int64 of ``crop`` together
     (clipped to it); without any pixel, :data:`DARK_SKIN`'s upper level (the given weights are kept)."""
     h, w = crop.shape[:2]
