@@ -292,7 +292,8 @@ def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarr
 @nb.njit(**KERNEL)
 def value_median(crop: np.ndarray, boxes: np.ndarray) -> float:
     """Median HSV value V (8-bit) of the pixels of the rectangles ``boxes`` (N, 4) int64 of ``crop`` together
-    (clipped to it); without any pixel, :data:`DARK_SKIN`'s upper level (the given weights are kept)."""
+    (clipped to it); without any pixel, :data:`DARK_SKIN`'s upper level (at which :func:`dark_skin_weights` keeps
+    the weights given)."""
     h, w = crop.shape[:2]
     total = 0
     for b in range(len(boxes)):
