@@ -57,7 +57,7 @@ def test_a_face_lit_from_one_side_is_evened_out(dark_right):
     """The light falling to about a third across the face (a window beside the performer): after evening, both cheeks
     are at the lit one's level, the lit side is untouched and the shaded eye's contrast to its skin is back."""
     face = _face()
-    crop, light = _lit(face, 0.35, 62, 8, dark_right)
+    crop, _ = _lit(face, 0.35, 62, 8, dark_right)
     before = _cheek_levels(crop)
     assert max(before) / min(before) > 2.5
     out = evened_sides(crop, CHEEKS)
@@ -76,7 +76,7 @@ def test_a_face_lit_from_one_side_is_evened_out(dark_right):
 def test_a_sharp_shadow_edge_leaves_the_lit_side_as_it_is():
     """A shadow's sharp edge near the shaded cheek: the lit columns between it and the lit cheek keep their light
     (a gain running evenly from one cheek to the other would brighten them half way), the shaded ones come up."""
-    crop, light = _lit(_face(), 0.35, 80, 1.5)
+    crop, _ = _lit(_face(), 0.35, 80, 1.5)
     gains = side_gains(crop, CHEEKS)
     assert gains is not None
     assert np.all(gains[:74] < 1.05), gains[:74].max()
