@@ -280,6 +280,22 @@ def _broad(rise: np.ndarray) -> bool:
     return False
 
 
+def _together(levels: np.ndarray, dark: np.ndarray) -> bool:
+    """Whether the bands' veil levels and dark levels, (bands,) float64 each, both vary (standard deviation over 0)
+    and correlate by :data:`VEIL` ``together`` or more (Pearson's r). The same arithmetic as ``np.std`` and
+    ``np.corrcoef`` of the two, in fewer numpy calls: the rows' means and squared deviations summed in one call
+    each, the covariances as one product of the deviations with their transpose, scaled by 1 / (bands - 1)."""
+    X = np.array([levels, dark])                            # (2, bands)
+    n = X.shape[1]
+    X -= X.mean(axis=1)[:, None]
+    if not (np.sqrt((X * X).sum(axis=1) / n) > 0.0).all():
+        return False
+    c = np.dot(X, X.T)
+    c *= np.true_divide(1, n - 1)
+    s = np.sqrt(np.diag(c))
+    return float(c[0, 1] / s[0] / s[1]) >= _TOGETHER
+
+
 def without_veil(crop: np.ndarray, px: float) -> np.ndarray:
     """The face crop (H, W, 3) uint8 with its veil (module docstring) taken off and stretched back; the crop
     itself where no band veil is broad (:func:`_broad`) or can be measured and the darkest band's black lies at
@@ -292,23 +308,24 @@ def without_veil(crop: np.ndarray, px: float) -> np.ndarray:
         return crop
     ok, levels, dark, slope, _ = veil_rows(crop, x0, y0, x1, y1, _BANDS, _STRIDE, _HUBER, _ITERATIONS, _CHROMA,
                                            _PIXELS, _DARK, _LEAST)
+    dark_list = dark.tolist()
+    dark_low, dark_high = min(dark_list), max(dark_list)
     # The darkest band's black lifted: an even veil.
-    even = max(float(dark.min()) - _BLACK, 0.0)
-    if not ok and dark.max() - dark.min() >= _LEAST:
+    even = max(dark_low - _BLACK, 0.0)
+    if not ok and dark_high - dark_low >= _LEAST:
         # The joint fit failed where the black rises: the levels on the clear bands' blue share, no slope across.
         ok, levels, _ = clear_band_levels(crop, x0, y0, x1, y1, _BANDS, _STRIDE, _CHROMA, _PIXELS, dark, _CLEAR)
         slope = 0.0
         # A veil lifts a band's black as it lifts its skin's blue: the two rise together over the bands (a dark
         # scene beside the face, a hand over it, lift one and not the other).
-        ok = ok and np.std(levels) > 0.0 and np.std(dark) > 0.0 and \
-            float(np.corrcoef(levels, dark)[0, 1]) >= _TOGETHER
+        ok = ok and _together(levels, dark)
     if ok:
         # Between the bands' middle rows the veil runs linearly from one level to the next: over the face it
         # rises from the lowest band level to the highest (the slope across, which a face's shading also gives,
         # is taken off with a veil found but finds none). A veil lifts the darkest pixels under it with the rest:
         # a band is veiled only as far as its dark level too lies above the darkest band's.
         levels = levels - levels.min()
-        if _broad(np.minimum(levels, dark - dark.min())):
+        if _broad(np.minimum(levels, dark - dark_low)):
             centres = y0 + (np.arange(_BANDS) + 0.5) * (y1 - y0) / _BANDS
             rows = np.interp(np.arange(h, dtype=float), centres, levels)        # level beyond the first and last
             # The lowest level over the whole crop is no veil (but for the even veil).
