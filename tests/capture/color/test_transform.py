@@ -1,9 +1,18 @@
 """Eq. 1 colour transform and the contrast C on hand-computed pixels (paper §3.1)."""
 
+import cv2
+import numba as nb
 import numpy as np
 import pytest
 
-from facepuppet.capture.color.transform import LipHue, channels, contrast, lip_hue_table, transform
+from facepuppet.capture.color.transform import (
+    LipHue,
+    channels,
+    contrast,
+    hsv_hue_saturation,
+    lip_hue_table,
+    transform,
+)
 
 # (R, G, B) -> (M, K, V, hue in degrees, saturated?) computed by hand:
 # M = (max - G) / max, K = 1 - max / 255, V = max / 255, hue by the HSV hexcone formula.
@@ -145,3 +154,19 @@ def test_the_value_median_reads_only_the_boxes_parts_inside_the_crop():
     assert value_median(crop, both) == 100.0
     assert value_median(crop, np.array([[25, 15, 40, 30]], np.int64)) == 200.0
     assert value_median(crop, np.array([[50, 50, 60, 60]], np.int64)) == DARK_SKIN[1]
+
+
+@nb.njit(cache=False)
+def _hue_saturation(rgb):
+    out = np.empty((len(rgb), 2), np.int64)
+    for i in range(len(rgb)):
+        out[i, 0], out[i, 1] = hsv_hue_saturation(np.int64(rgb[i, 0]), np.int64(rgb[i, 1]), np.int64(rgb[i, 2]))
+    return out
+
+
+def test_hsv_hue_saturation_is_opencvs():
+    # Every colour whose channels are multiples of 3, and the greys and primaries' edges, against cv2.cvtColor.
+    levels = np.r_[np.arange(0, 256, 3), 1, 2, 254].astype(np.uint8)
+    rgb = np.stack(np.meshgrid(levels, levels, levels, indexing="ij"), -1).reshape(-1, 3)
+    ref = cv2.cvtColor(rgb[None], cv2.COLOR_RGB2HSV)[0]
+    np.testing.assert_array_equal(_hue_saturation(rgb), ref[:, :2].astype(np.int64))

@@ -36,6 +36,7 @@ __all__ = [
     "GREY_CONTRAST",
     "GREY_SPREAD",
     "ycrcb_u8",
+    "hsv_hue_saturation",
     "skin_fraction",
     "feature_intensity",
     "DARK_WEIGHTS",
@@ -254,7 +255,7 @@ def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarr
     brightest 3 x 3 mean's level). With ``dark``, the weights go over to it as the skin's value falls
     (:func:`dark_skin_weights` of the median V over ``skin_boxes``). On a crop without colour, the eyes' C takes
     fractions going over to :data:`GREY_CONTRAST` (:data:`GREY_SPREAD`). The hue and saturation are OpenCV's 8-bit
-    HSV of the crop (:func:`cv2.cvtColor`), converted only when the hue term is used.
+    HSV of the crop (:func:`hsv_hue_saturation`, as :func:`cv2.cvtColor`), computed only when the hue term is used.
 
     Parameters
     ----------
@@ -284,9 +285,8 @@ def feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarr
     """
     if dark is not None:
         weights = dark_skin_weights(weights, dark, value_median(crop, skin_boxes))
-    hsv = cv2.cvtColor(crop, cv2.COLOR_RGB2HSV) if weights[3] != 0.0 else _NO_HSV
-    return _feature_intensity(crop, hsv, np.asarray(weights, dtype=np.float64), hue_table, min_saturation,
-                              skin_boxes, feature_boxes, grey_contrast)
+    return _feature_intensity(crop, np.asarray(weights, dtype=np.float64), hue_table, min_saturation, skin_boxes,
+                              feature_boxes, grey_contrast)
 
 
 @nb.njit(**KERNEL)
@@ -308,16 +308,43 @@ def value_median(crop: np.ndarray, boxes: np.ndarray) -> float:
     return median(vals[:n]) if n else DARK_SKIN[1]
 
 
-#: The HSV image :func:`_feature_intensity` is given when the hue term is not used (it is not read).
-_NO_HSV = np.zeros((0, 0, 3), np.uint8)
+def _hsv_tables() -> tuple[np.ndarray, np.ndarray]:
+    """OpenCV's division tables of its 8-bit RGB -> HSV (hue range 0..180), (256,) int64 each: 255 / v for the
+    saturation and 30 / (max - min) for the hue, in 12-bit fixed point, rounded to nearest (0 at 0)."""
+    i = np.arange(1, 256, dtype=np.float64)
+    sdiv, hdiv = np.zeros(256, np.int64), np.zeros(256, np.int64)
+    sdiv[1:] = np.rint((255 << 12) / i)
+    hdiv[1:] = np.rint((180 << 12) / (6.0 * i))
+    return sdiv, hdiv
+
+
+_SDIV, _HDIV = _hsv_tables()
+
+
+@nb.njit(**INNER)
+def hsv_hue_saturation(r: int, g: int, b: int):
+    """OpenCV's 8-bit RGB -> HSV (:func:`cv2.cvtColor`, ``COLOR_RGB2HSV``; same integer arithmetic): (hue code
+    0..180, saturation 0..255) of a pixel's r, g, b (0..255)."""
+    v = max(r, g, b)
+    diff = v - min(r, g, b)
+    s = (diff * _SDIV[v] + 2048) >> 12
+    if v == r:
+        hue = g - b
+    elif v == g:
+        hue = b - r + 2 * diff
+    else:
+        hue = r - g + 4 * diff
+    hue = (hue * _HDIV[diff] + 2048) >> 12
+    if hue < 0:
+        hue += 180
+    return hue, s
 
 
 @nb.njit(**KERNEL)
-def _feature_intensity(crop: np.ndarray, hsv: np.ndarray, weights: np.ndarray, hue_table: np.ndarray,
-                       min_saturation: float, skin_boxes: np.ndarray, feature_boxes: np.ndarray,
-                       grey_contrast: bool):
-    """:func:`feature_intensity` given the crop's 8-bit HSV ``hsv`` (H, W, 3) uint8 (read only where the hue
-    term's weight w4 is not 0)."""
+def _feature_intensity(crop: np.ndarray, weights: np.ndarray, hue_table: np.ndarray, min_saturation: float,
+                       skin_boxes: np.ndarray, feature_boxes: np.ndarray, grey_contrast: bool):
+    """:func:`feature_intensity` once the weights are known; the hue and saturation (:func:`hsv_hue_saturation`)
+    are computed only where the hue term's weight w4 is not 0."""
     h, w = crop.shape[:2]
     w1, w2, w3, w4 = weights[0], weights[1], weights[2], weights[3]
     kv = (w3 - w2) / 255.0
@@ -335,7 +362,8 @@ def _feature_intensity(crop: np.ndarray, hsv: np.ndarray, weights: np.ndarray, h
             v = max(r, g, b)
             spread += v - min(r, g, b)
             if use_hue:
-                hue_row[x] = w4 * hue_table[hsv[y, x, 0]] if hsv[y, x, 1] >= s_min else 0.0
+                hue, sat = hsv_hue_saturation(r, g, b)
+                hue_row[x] = w4 * hue_table[hue] if sat >= s_min else 0.0
             v_row[x] = v
             g_row[x] = g
             value[y, x] = v
