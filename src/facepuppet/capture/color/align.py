@@ -7,10 +7,11 @@ pre-blur of 3 x 3: both images blurred (kernel (1, 2, 1) / 4, borders reflected 
 gradients by central differences, and per step the input and its gradients warped back onto the template's grid
 (bilinear, outside the input: 0; a pixel counts where its nearest input pixel is inside), both zero-meaned over the
 pixels that count, and the Gauss-Newton step of the ECC criterion with its photometric scale λ. The template's blur
-is done once per reference (:func:`blur3`), not per frame. Each row of the template's grid is warped in one loop
-without branches (the input and its gradients padded with zeros, the indices clamped into the padding), whose
-sums are then taken in another; the sums are free to be reordered (vectorised), so the warp found may differ from
-a strictly ordered sum's in the last bits.
+is done once per reference (:func:`blur3`), not per frame. Each row of the template's grid is warped in two loops
+without branches (the input and its gradients padded with zeros, the indices clamped into the padding): one
+places the pixels (their bilinear weights and the flat index of their upper left neighbour, vectorised), one
+reads the neighbours; the row's sums are then taken in a third; the sums are free to be reordered (vectorised),
+so the warp found may differ from a strictly ordered sum's in the last bits.
 
 Conventions: images (h, w) float32 grey; the warp (2, 3) maps template pixels (x, y, 1) to input pixels; its
 parameters are updated in the order (a00, a10, a01, a11, a02, a12). The returned correlation is the criterion at
@@ -59,13 +60,15 @@ PAD = 2
 
 
 @nb.njit(**INNER)
-def _warp_row(img: np.ndarray, gx: np.ndarray, gy: np.ndarray, template: np.ndarray, y: int, m00: float, rx: float,
-              m10: float, ry: float, W: int, H: int, v: np.ndarray, a: np.ndarray, b: np.ndarray, m: np.ndarray,
-              t: np.ndarray) -> None:
+def _warp_row(img: np.ndarray, gx: np.ndarray, gy: np.ndarray, stride: int, template: np.ndarray, y: int,
+              m00: float, rx: float, m10: float, ry: float, W: int, H: int, v: np.ndarray, a: np.ndarray,
+              b: np.ndarray, m: np.ndarray, t: np.ndarray, weights: np.ndarray, at: np.ndarray) -> None:
     """Row ``y`` of the template's grid warped onto the input: pixel x sits at (m00 x + rx, m10 x + ry) in the
-    input (W x H). ``img``, ``gx``, ``gy``: the input and its gradients (H + 2 PAD, W + 2 PAD) float32, padded with
-    zeros. Writes per pixel the bilinear input ``v``, gradients ``a``, ``b`` (0 outside the input), whether the
-    pixel counts ``m`` (1.0 where its nearest input pixel is inside, else 0.0) and the template times it ``t``."""
+    input (W x H). ``img``, ``gx``, ``gy``: the input and its gradients padded with zeros (H + 2 PAD rows of
+    ``stride`` = W + 2 PAD float32), flattened row by row. Writes per pixel the bilinear input ``v``, gradients
+    ``a``, ``b`` (0 outside the input), whether the pixel counts ``m`` (1.0 where its nearest input pixel is
+    inside, else 0.0) and the template times it ``t``; ``weights`` (4, w) float64 and ``at`` (w,) int64 are
+    scratch (the bilinear weights, the flat index of the upper left neighbour)."""
     lo, hi_x, hi_y = -float(PAD), float(W), float(H)
     for x in range(len(v)):
         xx = float(x)
@@ -73,17 +76,22 @@ def _warp_row(img: np.ndarray, gx: np.ndarray, gy: np.ndarray, template: np.ndar
         Y = m10 * xx + ry
         fX, fY = np.floor(X), np.floor(Y)
         fx, fy = X - fX, Y - fY
-        w00, w01, w10, w11 = (1.0 - fy) * (1.0 - fx), (1.0 - fy) * fx, fy * (1.0 - fx), fy * fx
+        weights[0, x], weights[1, x] = (1.0 - fy) * (1.0 - fx), (1.0 - fy) * fx
+        weights[2, x], weights[3, x] = fy * (1.0 - fx), fy * fx
         # Beyond the padding both neighbours of a row or column are padding too.
         ix = int(min(max(fX, lo), hi_x)) + PAD
         iy = int(min(max(fY, lo), hi_y)) + PAD
-        v[x] = w00 * img[iy, ix] + w01 * img[iy, ix + 1] + w10 * img[iy + 1, ix] + w11 * img[iy + 1, ix + 1]
-        a[x] = w00 * gx[iy, ix] + w01 * gx[iy, ix + 1] + w10 * gx[iy + 1, ix] + w11 * gx[iy + 1, ix + 1]
-        b[x] = w00 * gy[iy, ix] + w01 * gy[iy, ix + 1] + w10 * gy[iy + 1, ix] + w11 * gy[iy + 1, ix + 1]
+        at[x] = iy * stride + ix
         nX, nY = np.floor(X + 0.5), np.floor(Y + 0.5)
         inside = 1.0 if (0.0 <= nX) & (nX < hi_x) & (0.0 <= nY) & (nY < hi_y) else 0.0
         m[x] = inside
         t[x] = float(template[y, x]) * inside
+    for x in range(len(v)):
+        i, j = at[x], at[x] + stride
+        w00, w01, w10, w11 = weights[0, x], weights[1, x], weights[2, x], weights[3, x]
+        v[x] = w00 * img[i] + w01 * img[i + 1] + w10 * img[j] + w11 * img[j + 1]
+        a[x] = w00 * gx[i] + w01 * gx[i + 1] + w10 * gx[j] + w11 * gx[j + 1]
+        b[x] = w00 * gy[i] + w01 * gy[i + 1] + w10 * gy[j] + w11 * gy[j + 1]
 
 
 @nb.njit(nogil=True, fastmath={"reassoc", "nsz", "contract"})
@@ -170,9 +178,13 @@ def ecc_affine(template: np.ndarray, image: np.ndarray, warp: np.ndarray, iterat
         for j in range(3):
             M[i, j] = warp[i, j]
     blurred = blur3(image)
-    img = np.zeros((H + 2 * PAD, W + 2 * PAD), np.float32)
-    gx = np.zeros((H + 2 * PAD, W + 2 * PAD), np.float32)
-    gy = np.zeros((H + 2 * PAD, W + 2 * PAD), np.float32)
+    stride = W + 2 * PAD
+    flat_img = np.zeros((H + 2 * PAD) * stride, np.float32)
+    flat_gx = np.zeros((H + 2 * PAD) * stride, np.float32)
+    flat_gy = np.zeros((H + 2 * PAD) * stride, np.float32)
+    img = flat_img.reshape((H + 2 * PAD, stride))
+    gx = flat_gx.reshape((H + 2 * PAD, stride))
+    gy = flat_gy.reshape((H + 2 * PAD, stride))
     for y in range(H):
         ym, yp = _reflect(y - 1, H), _reflect(y + 1, H)
         for x in range(W):
@@ -181,6 +193,7 @@ def ecc_affine(template: np.ndarray, image: np.ndarray, warp: np.ndarray, iterat
             gy[y + PAD, x + PAD] = np.float32(0.5) * (blurred[yp, x] - blurred[ym, x])
     G = np.empty((6, 6))
     rv, ra, rb, rm, rt = np.empty(w), np.empty(w), np.empty(w), np.empty(w), np.empty(w)
+    weights, at = np.empty((4, w)), np.empty(w, np.int64)
     xs = np.arange(w).astype(np.float64)
     pa = np.empty(6)        # sum of J * (warped input), all pixels
     pt = np.empty(6)        # sum of J * template, pixels that count
@@ -203,7 +216,8 @@ def ecc_affine(template: np.ndarray, image: np.ndarray, warp: np.ndarray, iterat
         for y in range(h):
             rx = m01 * y + m02
             ry = m11 * y + m12
-            _warp_row(img, gx, gy, template, y, m00, rx, m10, ry, W, H, rv, ra, rb, rm, rt)
+            _warp_row(flat_img, flat_gx, flat_gy, stride, template, y, m00, rx, m10, ry, W, H, rv, ra, rb, rm, rt,
+                      weights, at)
             (aa0, aa1, aa2, ab0, ab1, ab2, bb0, bb1, bb2, av0, av1, bv0, bv1, at0, at1, bt0, bt1, a0, a1, b0, b1,
              cnt, si, st, sii, stt, sit) = _row_sums(rv, ra, rb, rm, rt, xs, si, st, sii, stt, sit)
             n += int(cnt)
