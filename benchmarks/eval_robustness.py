@@ -30,7 +30,12 @@ such footage from the shared clips and measures it with the shared yardstick:
 - ``hd``: the frame enlarged to 1080 rows and set in the middle of a 1920 x 1080 frame, the sides reflected (a
   1080p webcam or phone close to the face: a face about 2.25 times as many pixels wide);
 - ``sidelit``: the light falling from the frame's left to 0.3 of it on the right through a soft logistic step at
-  the frame's middle, 0.06 of the width (a window beside the performer: one half of the face in shade).
+  the frame's middle, 0.06 of the width (a window beside the performer: one half of the face in shade);
+- ``toplit``: the light falling linearly from the frame's top row to 0.4 of it at the bottom row (a lamp above
+  the performer);
+- ``lamp_left`` and ``lamp_right``: a warm lamp's light (R, G, B times 1.15, 1.0, 0.75) on the frame's left
+  (right) half and a cool, dimmer window's light (0.6, 0.7, 0.85) on the other, through the same soft step as
+  ``sidelit``'s (two lights of different colours on the two halves of the face).
 
 Background copies: the face (an oval around MediaPipe's eyes on the original frame, feathered) cut out and set on
 a made-up scene, the kind of room that fools a skin-colour model:
@@ -54,8 +59,8 @@ profile (no landmark model: the copies test the colour pipeline alone), and scor
 The bars of the shared clips are NME <= 0.05, jitter ratio <= 1.5, coverage >= 0.98.
 
 Run: ``python benchmarks/eval_robustness.py [--clips performer_a performer_c] [--variants dim warm noisy small
-face80 cool rolled mirrored portrait darker deep lowres backlit haze long short grey hd sidelit wood beige skin_object
-poster stage_hand beard glasses] [--assets PATH] [--jobs 2]``
+face80 cool rolled mirrored portrait darker deep lowres backlit haze long short grey hd sidelit toplit lamp_left
+lamp_right wood beige skin_object poster stage_hand beard glasses] [--assets PATH] [--jobs 2]``
 (about 20 s per copy of a or c on one core, MediaPipe's reference included; ``performer_b_exaggerated`` is
 three times as long).
 """
@@ -78,7 +83,7 @@ import drawn  # noqa: E402  (this folder's module of things drawn on the face)
 
 ROOT = Path(__file__).resolve().parents[1]
 VARIANTS = ("dim", "warm", "noisy", "small", "face80", "cool", "rolled", "mirrored", "portrait", "darker", "deep",
-            "lowres", "backlit", "haze", "long", "short", "grey", "hd", "sidelit")
+            "lowres", "backlit", "haze", "long", "short", "grey", "hd", "sidelit", "toplit", "lamp_left", "lamp_right")
 BACKGROUNDS = ("wood", "beige", "skin_object", "poster", "stage_hand")
 DRAWN = tuple(drawn.DRAWN)
 #: The face cut out: an oval centred this far below the eyes, with these half-axes (eye-centre distances).
@@ -103,6 +108,10 @@ HD = (1920, 1080)
 #: The ``sidelit`` copy: the light left on the frame's right side (a share of the left side's) and the width of
 #: the soft step between them at the frame's middle (a share of the frame's width).
 SIDE_FLOOR, SIDE_SOFT = 0.3, 0.06
+#: The ``toplit`` copy: the light left at the frame's bottom row (a share of the top row's).
+TOP_FLOOR = 0.4
+#: The ``lamp_left`` and ``lamp_right`` copies: the warm lamp's and the cool window's gains of R, G, B.
+LAMP, WINDOW = (1.15, 1.0, 0.75), (0.6, 0.7, 0.85)
 
 
 def _shrunk(rgb: np.ndarray, f: float) -> np.ndarray:
@@ -214,6 +223,12 @@ def altered(rgb: np.ndarray, variant: str, rng: np.random.Generator, unit: float
         columns = np.arange(rgb.shape[1], dtype=np.float32) / rgb.shape[1]
         light = SIDE_FLOOR + (1.0 - SIDE_FLOOR) / (1.0 + np.exp((columns - 0.5) / SIDE_SOFT))
         x = x * light[None, :, None]
+    elif variant == "toplit":
+        x = x * np.linspace(1.0, TOP_FLOOR, rgb.shape[0], dtype=np.float32)[:, None, None]
+    elif variant in ("lamp_left", "lamp_right"):
+        columns = np.arange(rgb.shape[1], dtype=np.float32) / rgb.shape[1]
+        side = 1.0 / (1.0 + np.exp((columns - 0.5) / SIDE_SOFT * (1.0 if variant == "lamp_left" else -1.0)))
+        x = x * (side[:, None] * np.float32(LAMP) + (1.0 - side[:, None]) * np.float32(WINDOW))[None]
     elif variant == "hd":
         h, w = rgb.shape[:2]
         big = cv2.resize(rgb, (int(round(w * HD[1] / h)), HD[1]), interpolation=cv2.INTER_CUBIC)
