@@ -1,10 +1,11 @@
-"""Light from one side evened out on drawn face crops (known answers: the shading applied)."""
+"""Light from one side, and two lights of different colours, evened out on drawn face crops (known answers: the
+shading and the lights' colours applied)."""
 
 import cv2
 import numpy as np
 import pytest
 
-from facepuppet.capture.color.sides import SIDES, evened_sides, side_gains
+from facepuppet.capture.color.sides import COLOURS, SIDES, colour_gains, evened_colours, evened_sides, side_gains
 
 SIZE = (125, 134)                   # crop width, height (the tracker's)
 SKIN = (196, 150, 130)
@@ -101,3 +102,70 @@ def test_the_gain_grows_from_nothing_as_the_sides_part():
     crop, _ = _lit(_face(), 1.0 / (full + 0.3), 62, 10)
     after = _cheek_levels(evened_sides(crop, CHEEKS))
     assert abs(after[0] - after[1]) < 0.05 * max(after)
+
+
+#: A warm lamp's and a cool window's light, per channel (R, G, B): the second also dimmer.
+WARM, COOL = (1.15, 1.0, 0.75), (0.6, 0.7, 0.85)
+
+
+def _two_lights(img, centre, soft, warm=WARM, cool=COOL):
+    """``img`` lit by ``warm`` on the left and ``cool`` on the right, a logistic step at column ``centre`` ``soft``
+    columns wide."""
+    x = np.arange(img.shape[1], dtype=np.float32)
+    s = (1.0 / (1.0 + np.exp((x - centre) / soft)))[:, None]
+    light = s * np.asarray(warm, np.float32) + (1.0 - s) * np.asarray(cool, np.float32)
+    return _u8(img * light[None])
+
+
+def _cheek_shares(crop):
+    means = [crop[y0:y1, x0:x1].reshape(-1, 3).mean(axis=0) for x0, y0, x1, y1 in CHEEKS]
+    return [m / m.sum() for m in means]
+
+
+def test_one_light_s_colour_is_left_as_it_is():
+    """Both cheeks of one colour (one light, however warm, or shade alone): the crop itself."""
+    for crop in (_u8(_face()), _two_lights(_face(), 62, 8, WARM, WARM), _lit(_face(), 0.35, 62, 8)[0]):
+        assert colour_gains(crop, CHEEKS) is None and evened_colours(crop, CHEEKS) is crop
+
+
+def test_two_lights_colours_are_evened_to_the_lit_side_s():
+    """A warm lamp on the left, a cool, dimmer light on the right: after evening, the cool cheek has the warm
+    cheek's chromaticity, the warm side is untouched and each pixel of the step keeps about its R + G + B (the
+    levels are the side evening's)."""
+    crop = _two_lights(_face(), 62, 8)
+    before = _cheek_shares(crop)
+    gap = float(np.abs(before[0][:2] - before[1][:2]).sum())
+    assert COLOURS["full"][0] < gap <= COLOURS["most"][0], gap
+    out = evened_colours(crop, CHEEKS)
+    after = _cheek_shares(out)
+    assert np.abs(after[0] - after[1]).max() < 0.01, (before, after)
+    assert np.abs(after[1] - before[1]).max() < 0.01                  # about the warm (brighter) cheek's colour
+    assert np.abs(out[:, :30].astype(int) - crop[:, :30]).max() <= 1
+    total_in, total_out = crop.astype(int).sum(axis=2), out.astype(int).sum(axis=2)
+    assert np.abs(total_out - total_in)[60:80].max() <= 0.06 * total_in[60:80].max()
+
+
+def test_colours_too_far_apart_for_one_skin_are_left():
+    """One cheek on the skin, the other on a blue scene (a crop off the face): not two lights on one skin."""
+    crop = _u8(_face())
+    x0, y0, x1, y1 = CHEEKS[0]
+    crop[:, x0 - 10:] = (60, 90, 170)
+    assert colour_gains(crop, CHEEKS) is None and evened_colours(crop, CHEEKS) is crop
+
+
+def test_the_colour_gain_grows_from_nothing_as_the_colours_part():
+    """No jump where the colour evening starts: just over the difference it starts from, the gains are near 1."""
+    start = COLOURS["from"][0]
+    small = []
+    for t in np.linspace(0.0, 1.0, 201):
+        cool = tuple(1.0 + t * (c - 1.0) for c in COOL)
+        warm = tuple(1.0 + t * (w - 1.0) for w in WARM)
+        crop = _two_lights(_face(), 62, 8, warm, cool)
+        shares = _cheek_shares(crop)
+        gap = float(np.abs(shares[0][:2] - shares[1][:2]).sum())
+        g = colour_gains(crop, CHEEKS)
+        if g is None:
+            assert gap <= start + 0.002 or gap > COLOURS["most"][0]
+        elif gap < start + 0.002:
+            small.append(float(np.abs(np.log(g)).max()))
+    assert small and max(small) < 0.05, small

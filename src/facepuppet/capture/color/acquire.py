@@ -41,7 +41,7 @@ from facepuppet.capture.curves import CURVE_NAMES, bezier_points
 
 __all__ = ["Acquirer", "Measurer", "CANDIDATE_SHIFTS", "CANDIDATE_SCALES", "LIGHT_PERCENTILE", "LIGHT_TOP",
            "MOUTH_OFFSET_LIMIT", "MIN_UNIT", "LOST_REACH", "GLABELLA", "GLABELLA_SKIN", "REFINE_STEPS", "REFINE_SIZES",
-           "REFINE_TURN",
+           "REFINE_TURN", "WINDOW_REACH",
            "SAME_FACE", "SAME_ROLL", "WINDOW_SIZE_COST", "ANCHOR_STEPS", "ANCHOR_TOLERANCE",
            "candidate_frames", "fit_light", "likeness", "mouth_offset", "skin_between_brows"]
 
@@ -58,6 +58,12 @@ MIN_UNIT = 6                            # image pixels  smallest face (eye-centr
 REFINE_STEPS = 3                        # steps         eye-search steps pulling a candidate onto the eyes
 REFINE_SIZES = (0.8, 1.25)              # ratio         sizes the eye search may pull a candidate to, of its own
 REFINE_TURN = np.radians(20.0)          # radians       most the eye search may turn a candidate no window holds
+#: Largest size (ratio of the window's face size, :attr:`~.detect.FaceWindow.unit`) the eye search may pull a
+#: candidate a cascade window holds to: the windows of the shared performers' first frames, as filmed and in the
+#: light of a lamp above, beside or of two colours, put the face at 0.85-1.15 of MediaPipe's eye distance. The eye
+#: search's runaway pull is outward (lashes' tails, an eyeliner's wing, the hair beside an eye lit against the
+#: face); on its way to the eyes it may pass under a window's size (performer_c in glasses: 0.78 of it, then 0.92).
+WINDOW_REACH = 1.15
 SAME_FACE = (0.25, 0.2)                 # face units, log size: the landmark backend's face is the one acquired
 ANCHOR_STEPS = 4                        # steps         most eye searches to find the eye blobs' fixed point
 ANCHOR_TOLERANCE = 0.25                 # crop pixels   step below which the fixed point is found
@@ -150,7 +156,7 @@ class Measurer(Protocol):
     def eye_centres(self, C: np.ndarray, anchors: np.ndarray | None = None) -> np.ndarray | None: ...
 
     def measure(self, rgb: np.ndarray, frame: FaceFrame, *, follow: bool, gain: float, outline: bool = True,
-                correction: np.ndarray | None = None) -> Measurement | None: ...
+                correction: np.ndarray | None = None, largest: float | None = None) -> Measurement | None: ...
 
 
 class Acquirer:
@@ -279,13 +285,16 @@ class Acquirer:
         (:meth:`~.detect.FaceWindow.holds`: it is not where a window's face is, or not of its size), else less
         :data:`WINDOW_SIZE_COST` per unit of absolute log size change from the face of the window holding it that
         fits best (:attr:`~.detect.FaceWindow.unit`: the window's size is the surest size of a face just found,
-        the eye search may take the brows or nostrils for the eyes)."""
+        the eye search may take the brows or nostrils for the eyes); a candidate no window holds pays that too
+        for the windows its middle lies in (:meth:`~.detect.FaceWindow.contains`: a face a window sees, found at
+        another size)."""
         cfg = self.tracker.config.acquire
         held = [w for w in windows if w.holds(result.frame)]
-        off = min((abs(np.log(result.frame.unit / w.unit)) for w in held), default=0.0)
+        near = held or [w for w in windows if w.contains(result.frame)]
+        off = min((abs(np.log(result.frame.unit / w.unit)) for w in near), default=0.0)
         lost = bool(windows) and not held
         return (likeness(result, last, cfg.resize_cost, held=bool(held))
-                - (cfg.unsupported_cost if lost else WINDOW_SIZE_COST * off))
+                - (cfg.unsupported_cost if lost else 0.0) - WINDOW_SIZE_COST * off)
 
     def refine(self, rgb: np.ndarray, candidates: list[FaceFrame], last: LostFace | None = None,
                windows: list[FaceWindow] = ()) -> Measurement | None:
@@ -296,7 +305,10 @@ class Acquirer:
         turned head; a window's face is a face, and a window of a copy turned the other way may hold an upright
         one; none under ``acquire.min_skinless_score`` without skin between the brows (:func:`skin_between_brows`)
         unless a window holds it: a face in a dim or cool light shows the skin models none, and a pair of glasses'
-        rims lower its likeness), or None."""
+        rims lower its likeness), or None. Where no face was just lost, the eye search pulls a candidate a window
+        holds to at most :data:`WINDOW_REACH` times the window's face size: an eyeliner's wing or the hair's edge
+        beside an eye, taken for the eye's outer side, draws the eyes apart at each step, and the frame would grow
+        past the face."""
         skinless = self.tracker.config.acquire.min_skinless_score
 
         def held(result: Measurement) -> bool:
@@ -305,8 +317,13 @@ class Acquirer:
         best = None
         for cand in candidates:
             result, start = None, cand
+            # A face found afresh: within reach of every window holding it (a face just lost is found again near
+            # its own size, :func:`likeness`).
+            units = [w.unit for w in windows if w.holds(cand)] if last is None else []
+            largest = WINDOW_REACH * min(units) if units else None
             for step in range(REFINE_STEPS):
-                result = self.tracker.measure(rgb, cand, follow=False, gain=1.0, outline=step == REFINE_STEPS - 1)
+                result = self.tracker.measure(rgb, cand, follow=False, gain=1.0, outline=step == REFINE_STEPS - 1,
+                                              largest=largest)
                 if result is None or not result.eyes_found:
                     break               # without eyes the frame stays put: each further step would repeat this one
                 cand = result.frame

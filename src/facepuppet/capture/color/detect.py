@@ -163,12 +163,17 @@ class FaceWindow:
         eyes = np.array([[x + rx * w, y + ry * h], [x + lx * w, y + ly * h]]) @ back[:, :2].T + back[:, 2]
         return FaceFrame.from_eyes(eyes[0], eyes[1])
 
+    def contains(self, frame: FaceFrame) -> bool:
+        """Whether the face frame's origin lies in the window (whatever the frame's size)."""
+        ox, oy = self.to_box[:, :2] @ frame.origin + self.to_box[:, 2]
+        x, y, w, h = (float(v) for v in self.box)
+        return bool(x <= ox <= x + w and y <= oy <= y + h)
+
     def holds(self, frame: FaceFrame) -> bool:
         """Whether the face frame's origin lies in the window and its eye-centre distance is :data:`BOX_UNIT` of
         the window's width."""
-        ox, oy = self.to_box[:, :2] @ frame.origin + self.to_box[:, 2]
-        x, y, w, h = (float(v) for v in self.box)
-        return bool(x <= ox <= x + w and y <= oy <= y + h and BOX_UNIT[0] * w <= frame.unit <= BOX_UNIT[1] * w)
+        w = float(self.box[2])
+        return self.contains(frame) and BOX_UNIT[0] * w <= frame.unit <= BOX_UNIT[1] * w
 
 
 def face_windows(rgb: np.ndarray, roi: tuple[int, int, int, int] | None = None,

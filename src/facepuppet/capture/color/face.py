@@ -26,6 +26,7 @@ __all__ = [
     "light_balance",
     "similarity_from_points",
     "similarity_of_pairs",
+    "scaled_about",
     "same_frame",
     "then_affine",
     "box_in_crop",
@@ -344,6 +345,15 @@ def similarity_of_pairs(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
     a, b = (ux * vx + uy * vy) / den, (ux * vy - uy * vx) / den
     mx, my = 0.5 * (sx0 + sx1), 0.5 * (sy0 + sy1)
     return np.array([[a, -b, 0.5 * (dx0 + dx1) - (a * mx - b * my)], [b, a, 0.5 * (dy0 + dy1) - (b * mx + a * my)]])
+
+
+def scaled_about(S: np.ndarray, point: np.ndarray, factor: float) -> np.ndarray:
+    """The similarity ``S`` (2, 3) with its scale multiplied by ``factor``, ``point`` (2,) still mapped where ``S``
+    maps it."""
+    out = np.asarray(S, dtype=float).copy()
+    out[:, :2] *= factor
+    out[:, 2] += (S[:, :2] - out[:, :2]) @ np.asarray(point, dtype=float)
+    return out
 
 
 def box_in_crop(box, px: float) -> tuple[int, int, int, int]:

@@ -19,6 +19,15 @@ channels alike (and a camera's gamma keeps their ratios), so it is undone by a g
   which the linear reading alone would brighten), raised to the share of the way from ``from`` to ``full`` the
   ratio has come (no jump where the evening starts), between 1 and ``most``.
 
+A lamp on one side and a window on the other light the halves in different colours (warm and cool): Eq. 1's
+colour terms (magenta, the lip hue) then differ between the halves and one half's skin lights up as a feature.
+A change of light scales each channel by its own factor, so it too is undone by gains, one per channel: where
+the cheeks' mean chromaticities differ by more than :data:`COLOURS` ``from`` and at most ``most`` (more: a cheek
+on a coloured scene, not one skin), each column's chromaticity is read linearly between the cheeks' middle
+columns (the same beyond them) and its channels scaled to the brighter cheek's chromaticity, to the share of the
+way from ``from`` to ``full`` the difference has come (no jump where the evening starts). A pixel of the column's
+chromaticity keeps R + G + B: the levels are then the side evening's, which follows.
+
 Conventions: RGB uint8 face crops (H, W, 3), upright; rectangles (x0, y0, x1, y1) crop pixels; levels 8-bit.
 """
 
@@ -29,7 +38,7 @@ import numpy as np
 
 from facepuppet.capture.color.transform import value_median
 
-__all__ = ["SIDES", "side_gains", "evened_sides"]
+__all__ = ["SIDES", "COLOURS", "side_gains", "evened_sides", "colour_gains", "evened_colours"]
 
 #: The unevenness taken out: name -> (value, unit, meaning).
 SIDES = {
@@ -41,20 +50,41 @@ SIDES = {
                "summed) for the difference of their light to be shade (side-lit copies: up to 0.065)"),
 }
 
+#: Two lights' colours taken out of a face crop: name -> (value, unit, meaning).
+COLOURS = {
+    "from": (0.08, "chromaticity", "cheeks' chromaticity difference (as SIDES' ``colour``) under which the colours "
+             "are left as they are (the shared clips' followed crops: up to 0.079)"),
+    "full": (0.1, "chromaticity", "the difference from which the columns are brought fully to the lit cheek's "
+             "chromaticity (a warm lamp and a cool window's light on the shared performers: 0.1-0.12 mostly)"),
+    "most": (0.2, "chromaticity", "largest difference taken for two lights on one skin (a warm lamp and a cool "
+             "window's light on the shared performers' followed crops: up to 0.15; a blue scene beside skin: 0.3)"),
+}
 
-def _value(name: str) -> float:
-    return float(SIDES[name][0])
+
+def _value(name: str, table: dict = SIDES) -> float:
+    return float(table[name][0])
+
+
+def _shares(crop: np.ndarray, cheeks: np.ndarray) -> np.ndarray:
+    """(2, 3) the two cheek rectangles' mean chromaticities, (R, G, B) / (R + G + B) of their mean colours (a
+    rectangle without pixels: grey)."""
+    shares = np.empty((2, 3))
+    for k, (x0, y0, x1, y1) in enumerate(cheeks[:2].tolist()):
+        part = crop[max(y0, 0):max(y1, 0), max(x0, 0):max(x1, 0)]
+        mean = np.asarray(cv2.mean(part)[:3]) if part.size else np.ones(3)
+        shares[k] = mean / max(float(mean.sum()), 1e-6)
+    return shares
+
+
+def _gap(shares: np.ndarray) -> float:
+    """The difference of two chromaticities (2, 3): |dr| + |dg| (shade scales the channels alike, and a camera's
+    gamma keeps their ratios)."""
+    return float(np.abs(shares[0, :2] - shares[1, :2]).sum())
 
 
 def _chroma_gap(crop: np.ndarray, cheeks: np.ndarray) -> float:
-    """The difference of the two cheek rectangles' mean chromaticities: |dr| + |dg| of (R, G, B) / (R + G + B) of
-    their mean colours (shade scales the channels alike, and a camera's gamma keeps their ratios)."""
-    shares = []
-    for x0, y0, x1, y1 in cheeks.tolist():
-        part = crop[max(y0, 0):max(y1, 0), max(x0, 0):max(x1, 0)]
-        mean = np.asarray(cv2.mean(part)[:3]) if part.size else np.ones(3)
-        shares.append(mean / max(float(mean.sum()), 1e-6))
-    return float(np.abs(shares[0][:2] - shares[1][:2]).sum())
+    """The difference of the two cheek rectangles' mean chromaticities (:func:`_gap`)."""
+    return _gap(_shares(crop, cheeks))
 
 
 def _ramp(levels: list[float], cheeks: np.ndarray, width: int) -> np.ndarray:
@@ -114,3 +144,31 @@ def evened_sides(crop: np.ndarray, cheeks: np.ndarray) -> np.ndarray:
     h, w = crop.shape[:2]
     g = np.ascontiguousarray(np.broadcast_to(gains, (h, w)))
     return cv2.multiply(crop, cv2.merge((g, g, g)), dtype=cv2.CV_8U)
+
+
+def colour_gains(crop: np.ndarray, cheeks: np.ndarray) -> np.ndarray | None:
+    """(W, 3) float32 gains of each column's R, G, B that bring its chromaticity, read linearly between the two
+    cheek rectangles' ``cheeks`` (2, 4) int64 middle columns (the same beyond them), to the brighter cheek's
+    (module notes); None where the cheeks' chromaticities differ by at most :data:`COLOURS` ``from`` or by more
+    than ``most``."""
+    shares = _shares(crop, cheeks)
+    gap = _gap(shares)
+    start, full = _value("from", COLOURS), _value("full", COLOURS)
+    if not start < gap <= _value("most", COLOURS):
+        return None
+    lit = int(value_median(crop, cheeks[1:2]) > value_median(crop, cheeks[0:1]))
+    middles = np.array([0.5 * (float(cheeks[k, 0]) + float(cheeks[k, 2]) - 1.0) for k in range(2)])
+    order = np.argsort(middles)
+    x = np.arange(crop.shape[1], dtype=np.float64)
+    seen = np.stack([np.interp(x, middles[order], shares[order, c]) for c in range(3)], axis=1)
+    share = min((gap - start) / (full - start), 1.0)
+    return ((shares[lit] / np.maximum(seen, 1e-3)) ** share).astype(np.float32)
+
+
+def evened_colours(crop: np.ndarray, cheeks: np.ndarray) -> np.ndarray:
+    """The face crop (H, W, 3) uint8 with two lights' colours evened out between its sides (:func:`colour_gains`);
+    the crop itself where the cheeks' colours are about alike, or too far apart for one skin."""
+    gains = colour_gains(crop, cheeks)
+    if gains is None:
+        return crop
+    return cv2.multiply(crop, np.ascontiguousarray(np.broadcast_to(gains, crop.shape)), dtype=cv2.CV_8U)

@@ -40,6 +40,7 @@ from facepuppet.capture.color.face import (
     box_in_crop,
     far_correction,
     same_frame,
+    scaled_about,
     similarity_of_pairs,
     turned_and_shifted,
 )
@@ -54,7 +55,7 @@ from facepuppet.capture.color.refind import LostFace
 from facepuppet.capture.color.rims import Rims
 from facepuppet.capture.color.rules import BOX_NAMES, move_boxes
 from facepuppet.capture.color.shape_models import FAMILIES
-from facepuppet.capture.color.sides import evened_sides
+from facepuppet.capture.color.sides import evened_colours, evened_sides
 from facepuppet.capture.color.smoothing import CurveSmoother
 from facepuppet.capture.color.transform import feature_intensity, lip_hue_table, skin_fraction
 from facepuppet.capture.color.turn import HeadTurn
@@ -319,11 +320,12 @@ class ColorTracker:
         return eyes if found else None
 
     def measure(self, rgb: np.ndarray, frame: FaceFrame, *, follow: bool, gain: float, outline: bool = True,
-                correction: np.ndarray | None = None) -> Measurement | None:
+                correction: np.ndarray | None = None, largest: float | None = None) -> Measurement | None:
         """Measure one RGB frame in the face frame ``frame``: with ``follow``, first align the crop on the
         reference and smooth the eyes' correction (the last frame's, or ``correction`` (4,) if given) with
         ``gain``; without ``outline``, only re-align the frame (the curves are None: the steps that only move a
-        candidate frame do not need them).
+        candidate frame do not need them). ``largest``, image pixels: the largest face size (eye-centre distance)
+        the eyes may pull a frame not followed to (its scale kept under it about the eyes' midpoint).
 
         Returns
         -------
@@ -343,6 +345,7 @@ class ColorTracker:
         crop = cv2.warpAffine(rgb, A, self._size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         if place.light is not None:
             crop = cv2.transform(crop, place.light)
+        crop = evened_colours(crop, self._cheek_boxes)                          # two lights' colours: evened
         crop = evened_sides(crop, self._cheek_boxes)                            # light from one side: evened
         crop = without_glare(crop, self._cheek_boxes, self._eye_boxes, px)      # a lens's reflection: unknown
         crop = self._rims(crop, self._eye_boxes, px, follow)                   # glasses' rims: filled in
@@ -362,7 +365,10 @@ class ColorTracker:
         corr = last_corr if smooth else np.array(NO_CORRECTION)
         if eyes is not None:
             S_eye = similarity_of_pairs(place.anchors_px[:2], eyes)
-            if SCALE_STEP[0] < float(np.hypot(S_eye[0, 0], S_eye[1, 0])) < SCALE_STEP[1]:
+            step = float(np.hypot(S_eye[0, 0], S_eye[1, 0]))
+            if SCALE_STEP[0] < step < SCALE_STEP[1]:
+                if largest is not None and not smooth and step * frame.unit > largest:
+                    S_eye = scaled_about(S_eye, place.anchor_mid, largest / (step * frame.unit))
                 v = np.array([S_eye[0, 0], S_eye[1, 0], S_eye[0, 2], S_eye[1, 2]])
                 corr = corr + gain * (v - corr) if smooth else v
             else:
