@@ -162,7 +162,7 @@ class _TurningEyes:
 
         self.step, self.config, self.profile = step, ColorTrackerConfig(), default_profile()
 
-    def measure(self, rgb, frame, *, follow, gain, outline=True, correction=None):
+    def measure(self, rgb, frame, *, follow, gain, outline=True, correction=None, largest=None):
         c, s = np.cos(self.step), np.sin(self.step)
         turned = FaceFrame(frame.origin.copy(), np.array([[c, -s], [s, c]]) @ frame.axis)
         return Measurement(None, turned, True, 0.9, np.array([1.0, 0.0, 0.0, 0.0]), None)
@@ -201,7 +201,7 @@ class _DarkCrops(_TurningEyes):
     """A measurer that finds the eyes of every frame it is given where they are, in a crop without skin (black),
     with a likeness under the skinless candidates' bar."""
 
-    def measure(self, rgb, frame, *, follow, gain, outline=True, correction=None):
+    def measure(self, rgb, frame, *, follow, gain, outline=True, correction=None, largest=None):
         crop = np.zeros((134, 125, 3), np.uint8)
         score = 0.5 * self.config.acquire.min_skinless_score
         return Measurement(None, frame, True, score, np.array([1.0, 0.0, 0.0, 0.0]), (crop, None, None))

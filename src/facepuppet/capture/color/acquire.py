@@ -282,7 +282,9 @@ class Acquirer:
         """How much a candidate looks like the face sought: :func:`likeness` with ``last`` (a face just lost found
         again larger only where a window holds it), less
         ``acquire.unsupported_cost`` when the cascade found windows but none holds it
-        (:meth:`~.detect.FaceWindow.holds`: it is not where a window's face is, or not of its size), else less
+        (:meth:`~.detect.FaceWindow.holds`: it is not where a window's face is, or not of its size) or its eyes
+        pulled it past the window's reach (:attr:`~.measure.Measurement.held_back`: its eyes are not the window
+        face's), else less
         :data:`WINDOW_SIZE_COST` per unit of absolute log size change from the face of the window holding it that
         fits best (:attr:`~.detect.FaceWindow.unit`: the window's size is the surest size of a face just found,
         the eye search may take the brows or nostrils for the eyes); a candidate no window holds pays that too
@@ -292,7 +294,7 @@ class Acquirer:
         held = [w for w in windows if w.holds(result.frame)]
         near = held or [w for w in windows if w.contains(result.frame)]
         off = min((abs(np.log(result.frame.unit / w.unit)) for w in near), default=0.0)
-        lost = bool(windows) and not held
+        lost = bool(windows) and (not held or result.held_back)
         return (likeness(result, last, cfg.resize_cost, held=bool(held))
                 - (cfg.unsupported_cost if lost else 0.0) - WINDOW_SIZE_COST * off)
 

@@ -33,6 +33,9 @@ class Measurement:
     seen : tuple or None
         What the curves were read on: (face crop (H, W, 3) uint8, its crop matrix (2, 3), the layout placed on
         the crop (C, 4, 2)), or None without curves.
+    held_back : bool
+        Whether the eyes pulled the frame past the largest size it may take (``largest`` of
+        :meth:`~.tracker.ColorTracker.measure`), where it was kept.
     """
 
     curves: np.ndarray | None
@@ -41,6 +44,7 @@ class Measurement:
     score: float
     correction: np.ndarray
     seen: tuple[np.ndarray, np.ndarray, np.ndarray] | None
+    held_back: bool = False
 
 
 @dataclass

@@ -363,11 +363,13 @@ class ColorTracker:
         start = turned_and_shifted(place.anchors_px, last_corr) if held else None
         eyes = self.eye_centres(self._intensity.eyes, start, dark=follow)
         corr = last_corr if smooth else np.array(NO_CORRECTION)
+        held_back = False
         if eyes is not None:
             S_eye = similarity_of_pairs(place.anchors_px[:2], eyes)
             step = float(np.hypot(S_eye[0, 0], S_eye[1, 0]))
             if SCALE_STEP[0] < step < SCALE_STEP[1]:
-                if largest is not None and not smooth and step * frame.unit > largest:
+                held_back = largest is not None and not smooth and step * frame.unit > largest
+                if held_back:
                     S_eye = scaled_about(S_eye, place.anchor_mid, largest / (step * frame.unit))
                 v = np.array([S_eye[0, 0], S_eye[1, 0], S_eye[0, 2], S_eye[1, 2]])
                 corr = corr + gain * (v - corr) if smooth else v
@@ -397,7 +399,7 @@ class ColorTracker:
         S[:, 2] = -S_px[:, :2] @ _CROP_ORIGIN + S_px[:, 2] / px + _CROP_ORIGIN
         measured = frame.compose(S)
         return Measurement(curves=curves, frame=measured, eyes_found=eyes is not None, score=score, correction=corr,
-                           seen=(crop, A, placed) if outline else None)
+                           seen=(crop, A, placed) if outline else None, held_back=held_back)
 
     # -- internals -------------------------------------------------------------------------------------
     def _features(self, curves: np.ndarray, size: tuple[int, int], turn: np.ndarray | None = None) -> FrameFeatures:
