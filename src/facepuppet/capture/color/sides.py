@@ -68,18 +68,20 @@ def _value(name: str, table: dict = SIDES) -> float:
 def _shares(crop: np.ndarray, cheeks: np.ndarray) -> np.ndarray:
     """(2, 3) the two cheek rectangles' mean chromaticities, (R, G, B) / (R + G + B) of their mean colours (a
     rectangle without pixels: grey)."""
-    shares = np.empty((2, 3))
-    for k, (x0, y0, x1, y1) in enumerate(cheeks[:2].tolist()):
+    shares = []
+    for x0, y0, x1, y1 in cheeks[:2].tolist():
         part = crop[max(y0, 0):max(y1, 0), max(x0, 0):max(x1, 0)]
-        mean = np.asarray(cv2.mean(part)[:3]) if part.size else np.ones(3)
-        shares[k] = mean / max(float(mean.sum()), 1e-6)
-    return shares
+        r, g, b, _ = cv2.mean(part) if part.size else (1.0, 1.0, 1.0, 0.0)
+        total = max(r + g + b, 1e-6)
+        shares.append((r / total, g / total, b / total))
+    return np.array(shares)
 
 
 def _gap(shares: np.ndarray) -> float:
     """The difference of two chromaticities (2, 3): |dr| + |dg| (shade scales the channels alike, and a camera's
     gamma keeps their ratios)."""
-    return float(np.abs(shares[0, :2] - shares[1, :2]).sum())
+    (r0, g0, _), (r1, g1, _) = shares.tolist()
+    return abs(r0 - r1) + abs(g0 - g1)
 
 
 def _chroma_gap(crop: np.ndarray, cheeks: np.ndarray) -> float:
