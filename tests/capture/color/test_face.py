@@ -4,7 +4,15 @@ import cv2
 import numpy as np
 import pytest
 
-from facepuppet.capture.color.face import FaceFrame, find_face, light_balance, similarity_from_points, skin_probability
+from facepuppet.capture.color.face import (
+    FaceFrame,
+    find_face,
+    light_balance,
+    scaled_about,
+    similarity_from_points,
+    similarity_of_pairs,
+    skin_probability,
+)
 
 SKIN = (225, 170, 140)
 GREY = (128, 128, 128)
@@ -93,3 +101,14 @@ def test_compose_and_blend():
     h = f.blend(g, 0.5)
     assert h.unit == pytest.approx(np.sqrt(200.0))
     np.testing.assert_allclose(h.origin, [5.0, 5.0])
+
+
+def test_scaled_about_keeps_the_point_and_the_turn(rng):
+    """A similarity scaled about a point: that point maps where it did, the turn is kept, the scale multiplied."""
+    src, dst = rng.normal(size=(2, 2)) * 50.0, rng.normal(size=(2, 2)) * 50.0
+    S = similarity_of_pairs(src, dst)
+    mid = src.mean(axis=0)
+    out = scaled_about(S, mid, 0.8)
+    assert np.allclose(out[:, :2] @ mid + out[:, 2], dst.mean(axis=0))
+    assert np.isclose(np.hypot(out[0, 0], out[1, 0]), 0.8 * np.hypot(S[0, 0], S[1, 0]))
+    assert np.isclose(np.arctan2(out[1, 0], out[0, 0]), np.arctan2(S[1, 0], S[0, 0]))
