@@ -89,12 +89,18 @@ def _chroma_gap(crop: np.ndarray, cheeks: np.ndarray) -> float:
     return _gap(_shares(crop, cheeks))
 
 
-def _ramp(levels: list[float], cheeks: np.ndarray, width: int) -> np.ndarray:
-    """(width,) the light running linearly between the cheeks' middle columns at their ``levels``, the same
+def _across(values, cheeks: np.ndarray, width: int) -> np.ndarray:
+    """(width,) the two cheeks' ``values`` (2,) running linearly between the cheeks' middle columns, the same
     beyond them."""
     middles = np.array([0.5 * (float(cheeks[k, 0]) + float(cheeks[k, 2]) - 1.0) for k in range(2)])
     order = np.argsort(middles)
-    return np.interp(np.arange(width, dtype=np.float64), middles[order], np.maximum(np.asarray(levels)[order], 1.0))
+    return np.interp(np.arange(width, dtype=np.float64), middles[order], np.asarray(values, dtype=np.float64)[order])
+
+
+def _ramp(levels: list[float], cheeks: np.ndarray, width: int) -> np.ndarray:
+    """(width,) the light running linearly between the cheeks' middle columns at their ``levels`` (at least 1),
+    the same beyond them."""
+    return _across(np.maximum(np.asarray(levels), 1.0), cheeks, width)
 
 
 def _columns(crop: np.ndarray, cheeks: np.ndarray, rising: bool) -> np.ndarray | None:
@@ -159,10 +165,7 @@ def colour_gains(crop: np.ndarray, cheeks: np.ndarray) -> np.ndarray | None:
     if not start < gap <= _value("most", COLOURS):
         return None
     lit = int(value_median(crop, cheeks[1:2]) > value_median(crop, cheeks[0:1]))
-    middles = np.array([0.5 * (float(cheeks[k, 0]) + float(cheeks[k, 2]) - 1.0) for k in range(2)])
-    order = np.argsort(middles)
-    x = np.arange(crop.shape[1], dtype=np.float64)
-    seen = np.stack([np.interp(x, middles[order], shares[order, c]) for c in range(3)], axis=1)
+    seen = np.stack([_across(shares[:, c], cheeks, crop.shape[1]) for c in range(3)], axis=1)
     share = min((gap - start) / (full - start), 1.0)
     return ((shares[lit] / np.maximum(seen, 1e-3)) ** share).astype(np.float32)
 
