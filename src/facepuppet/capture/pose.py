@@ -142,6 +142,17 @@ class HeadPose:
         roll = np.arctan2(m[1, 0], m[1, 1])
         return np.array([yaw, pitch, roll])
 
+    @property
+    def roll(self) -> float:
+        """The roll of :meth:`angles` alone, radians (the same arithmetic)."""
+        return _roll(self.rotation)
+
+
+def _roll(rotation: np.ndarray) -> float:
+    """The roll (radians) of the head-to-camera ``rotation`` (3, 3), as :meth:`HeadPose.angles` reads it."""
+    m = FRONTAL_ROTATION @ rotation
+    return float(np.arctan2(m[1, 0], m[1, 1]))
+
 
 @dataclass(frozen=True)
 class FailedPose:
@@ -204,8 +215,6 @@ def estimate_pose(image_points: Mapping[str, np.ndarray] | np.ndarray, frame_siz
         the camera, or the generic face does not fit the points (mean reprojection error above 35 % of the
         eye-corner span).
     """
-    import cv2
-
     names, uv, xyz = _as_correspondences(image_points, names)
     if not np.isfinite(uv).all():
         finite = np.isfinite(uv).all(axis=1)
@@ -216,14 +225,15 @@ def estimate_pose(image_points: Mapping[str, np.ndarray] | np.ndarray, frame_siz
     K = camera_matrix(float(frame_size[0]), float(frame_size[1]), None if focal is None else float(focal))
     if not out_of_plane:
         start = upright_start(K, xyz, uv) if not previous else (
-            float(HeadPose(previous.rotation, previous.translation, K).angles()[2]),
-            np.asarray(previous.translation, dtype=float))
+            _roll(previous.rotation), np.asarray(previous.translation, dtype=float))
         roll, t, ok = refine_upright(xyz, uv, K, start[0], start[1].copy())
         if not ok or not np.isfinite(t).all():
             return FailedPose("upright head pose did not converge")
         c, s = np.cos(roll), np.sin(roll)
         R = FRONTAL_ROTATION @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
         return _checked_pose(R, t, K, xyz, uv, names)
+    import cv2
+
     if previous:
         # From last frame's pose a few Gauss-Newton steps on the same reprojection error converge.
         R, t, ok = refine_pose(xyz, uv, K, np.asarray(previous.rotation, dtype=float),

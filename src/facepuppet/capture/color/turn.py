@@ -27,8 +27,11 @@ from facepuppet.filters import OneEuro, OneEuroConfig
 __all__ = ["TURN_FILTER", "HeadTurn"]
 
 _IDX = {n: i for i, n in enumerate(CURVE_NAMES)}
-#: Two layout points (curve, control point) the placement of the layout is read back from: the outer eye corners.
-_PLACED_PAIR = ((_IDX["eye_right_upper"], 3), (_IDX["eye_left_upper"], 3))
+#: Two layout points the placement of the layout is read back from, the outer eye corners: their curves and their
+#: control points, as a (C, 4, 2) array's index.
+_PLACED_PAIR = ([_IDX["eye_right_upper"], _IDX["eye_left_upper"]], [3, 3])
+#: The curves whose first control points are the inner eye corners.
+_INNER_RIGHT, _INNER_LEFT = _IDX["eye_right_upper"], _IDX["eye_left_upper"]
 #: The One-Euro filter of the yaw and pitch (radians). Read on every frame (the model's), a steady turn of 60
 #: degrees a second lags a third of a frame at 30 frames a second, and a still head's frame-to-frame noise is cut
 #: to a fifth; the nose's readings, held between the frames they are measured on, step at each.
@@ -51,7 +54,7 @@ class HeadTurn:
 
     def __init__(self, model: dict, layout_px: np.ndarray, px: float):
         self._model = model
-        self._layout_px = np.asarray(layout_px, dtype=float)
+        self._layout_pair = np.asarray(layout_px, dtype=float)[_PLACED_PAIR]     # (2, 2) the outer eye corners
         self._px = float(px)
         self._filter = OneEuro(TURN_FILTER)
         self._nose = NoseTurn()
@@ -71,8 +74,7 @@ class HeadTurn:
         crop, A, placed = seen
         nose = self._nose
         if self._model or nose.due:
-            (c0, k0), (c1, k1) = _PLACED_PAIR
-            S = similarity_of_pairs(self._layout_px[[c0, c1], [k0, k1]], placed[[c0, c1], [k0, k1]])
+            S = similarity_of_pairs(self._layout_pair, placed[_PLACED_PAIR])
             raw = (apply_turn_model(self._model, crop, S, self._px) if self._model
                    else nose(rgb, face_to_image(A, S, self._px, CROP_EXTENT[:2])))
         else:
@@ -89,7 +91,7 @@ class HeadTurn:
         """The upright ``pose`` turned by ``turn`` (yaw, pitch) and the share of the line of sight through the
         inner eye corners of ``curves`` (C, 4, 2) image pixels that goes with it (:func:`~.head_turn.turn_angles`),
         its roll kept."""
-        inner = 0.5 * (curves[_IDX["eye_right_upper"], 0] + curves[_IDX["eye_left_upper"], 0])
+        inner = 0.5 * (curves[_INNER_RIGHT, 0] + curves[_INNER_LEFT, 0])
         yaw, pitch = turn_angles(turn, inner, pose.camera_matrix, RAY_SHARE if self._model else LOOK_SHARE)
-        return HeadPose(FRONTAL_ROTATION @ turn_rotation(yaw, pitch, float(pose.angles()[2])),
+        return HeadPose(FRONTAL_ROTATION @ turn_rotation(yaw, pitch, pose.roll),
                         pose.translation, pose.camera_matrix, pose.reprojection_error)
