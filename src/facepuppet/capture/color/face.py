@@ -10,6 +10,7 @@ the face frame (:class:`FaceFrame`), so the feature rectangles follow the head's
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import cv2
 import numpy as np
@@ -274,9 +275,9 @@ class FaceFrame:
         right, left = np.asarray(right, dtype=float), np.asarray(left, dtype=float)
         return cls((right + left) / 2.0, left - right)
 
-    @property
+    @cached_property
     def unit(self) -> float:
-        """Face unit (distance between the eye centres) in pixels."""
+        """Face unit (distance between the eye centres) in pixels (worked out at the first reading)."""
         return float(np.hypot(self.axis[0], self.axis[1]))
 
     @property

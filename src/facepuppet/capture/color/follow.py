@@ -228,8 +228,9 @@ class Follower:
         self.correlation = float(cc)
         W[:, 2] /= f
         G = then_affine(W, cv2.invertAffineTransform(A))      # crop pixels -> image pixels, where the face is now
-        share = self._height_share(G)
-        moved = self._frame_of(G, share)
+        axes = _axes(G)
+        share = self._height_share(axes)
+        moved = self._frame_of(G, share, axes)
         if units is not None and not units[0] < moved.unit < units[1]:
             return None
         self.followed = cv2.invertAffineTransform(G)
@@ -239,26 +240,33 @@ class Follower:
     def aligned(self) -> FaceFrame:
         """The face frame where the last successful alignment put the face (the reference's own frame before
         the first): the eyes' correction not applied."""
-        return self._frame_of(cv2.invertAffineTransform(self.followed), self.height_share)
+        G = cv2.invertAffineTransform(self.followed)
+        return self._frame_of(G, self.height_share, _axes(G))
 
-    def _height_share(self, G: np.ndarray) -> float:
-        """The share of the vertical axis of the crop-to-image matrix ``G`` (2, 3) in the face's size: how much
-        its horizontal axis's length ``w`` changed from the size the last alignment gave the face, of how much
-        both changed: ``dw / (dw + dh)``, ``dw = |log(w px / unit)|``, ``dh`` alike. A turn or a nod changes one
-        axis of an affine fit of the frontal reference (a turned head stretches the horizontal one: the near
+    def _height_share(self, axes: tuple[float, float]) -> float:
+        """The share of the vertical axis of a crop-to-image matrix in the face's size, from its ``axes``' lengths
+        ``(w, h)`` (:func:`_axes`): how much ``w`` changed from the size the last alignment gave the face, of how
+        much both changed: ``dw / (dw + dh)``, ``dw = |log(w px / unit)|``, ``dh`` alike. A turn or a nod changes
+        one axis of an affine fit of the frontal reference (a turned head stretches the horizontal one: the near
         half of the face, seen more frontally, widens and holds most of the texture; a nod shortens the
         vertical one), a move towards the camera both alike: the face's size is what the axis that changed
         least says."""
         if not self.both_axes:
             return 0.0
-        dw = abs(np.log(float(np.hypot(G[0, 0], G[1, 0])) * self.px / self.unit))
-        dh = abs(np.log(float(np.hypot(G[0, 1], G[1, 1])) * self.px / self.unit))
+        dw = abs(np.log(axes[0] * self.px / self.unit))
+        dh = abs(np.log(axes[1] * self.px / self.unit))
         return dw / (dw + dh) if dw + dh > 1e-12 else 0.0
 
-    def _frame_of(self, G: np.ndarray, height_share: float) -> FaceFrame:
-        """The face frame of the crop-to-image matrix ``G`` (2, 3): its origin, the roll of its horizontal axis
-        ``G[:, 0]``, and as its size (image pixels per face unit) the geometric mean of its axes' lengths ``w``,
-        ``h`` weighted by ``height_share`` (:meth:`_height_share`): ``w^(1 - share) h^share``."""
-        width, height = float(np.hypot(G[0, 0], G[1, 0])), float(np.hypot(G[0, 1], G[1, 1]))
+    def _frame_of(self, G: np.ndarray, height_share: float, axes: tuple[float, float]) -> FaceFrame:
+        """The face frame of the crop-to-image matrix ``G`` (2, 3) whose axes have the lengths ``axes`` = (w, h)
+        (:func:`_axes`): its origin, the roll of its horizontal axis ``G[:, 0]``, and as its size (image pixels
+        per face unit) the geometric mean of its axes' lengths weighted by ``height_share``
+        (:meth:`_height_share`): ``w^(1 - share) h^share``."""
+        width, height = axes
         size = width ** (1.0 - height_share) * height ** height_share
         return FaceFrame(G[:, :2] @ self.origin_px + G[:, 2], G[:, 0] * (size / width * self.px))
+
+
+def _axes(G: np.ndarray) -> tuple[float, float]:
+    """The lengths (w, h) of the horizontal and vertical axes ``G[:, 0]``, ``G[:, 1]`` of a (2, 3) matrix."""
+    return float(np.hypot(G[0, 0], G[1, 0])), float(np.hypot(G[0, 1], G[1, 1]))
