@@ -50,6 +50,13 @@ def test_frontal_rotation_is_right_handed_and_generic_face_is_symmetric():
     assert uv[0, 0] > SIZE[0] / 2 > uv[1, 0]
 
 
+@pytest.mark.parametrize("yaw,pitch,roll", [(0, 0, 0), (25, -10, 8), (-30, 15, -12), (10, 20, 170)])
+def test_roll_is_the_angles_roll_to_the_last_bit(yaw, pitch, roll):
+    pose = HeadPose(rotation(yaw, pitch, roll), np.array([0.0, 0.0, 50.0]), default_camera(SIZE))
+    assert pose.roll == pose.angles()[2]
+    assert np.isclose(pose.roll, np.radians(roll))
+
+
 @pytest.mark.parametrize("yaw,pitch,roll", [(0, 0, 0), (25, -10, 8), (-30, 15, -12), (10, 20, 30)])
 def test_pose_recovers_a_known_rotation_from_noisy_projections(yaw, pitch, roll, rng):
     R = rotation(yaw, pitch, roll)

@@ -144,7 +144,7 @@ class HeadPose:
 
     @property
     def roll(self) -> float:
-        """The roll of :meth:`angles` alone, radians (the same arithmetic)."""
+        """The roll of :meth:`angles` (radians), without the yaw and pitch."""
         return _roll(self.rotation)
 
 

@@ -277,7 +277,8 @@ class FaceFrame:
 
     @cached_property
     def unit(self) -> float:
-        """Face unit (distance between the eye centres) in pixels (worked out at the first reading)."""
+        """Face unit (distance between the eye centres) in pixels; worked out at the first reading and kept (a
+        frame's arrays are not changed in place)."""
         return float(np.hypot(self.axis[0], self.axis[1]))
 
     @property
