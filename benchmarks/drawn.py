@@ -6,7 +6,9 @@
   mouth, where the mouth's rules look for the lips);
 - ``glasses``: thick dark rims (a rounded rectangle around each eye, the bridge and the arms) and a bright
   reflection that comes and goes on the lenses and slides across them (:data:`GLARE_PERIOD`): rims near the
-  brows and lids, a lens's glare hiding the lid and the eye's white.
+  brows and lids, a lens's glare hiding the lid and the eye's white;
+- ``sleeve``: a dark sleeve passing down across the upper face now and then (:data:`SLEEVE_PERIOD`), from
+  above the brows to under the nose: the eyes hidden, and the sleeve's edges with the eyes' dark over the skin.
 
 Coordinates are image pixels (x right, y down); the curves are (C, 4, 2) in the order of ``CURVE_NAMES``; the
 eye-centre distance (``unit``) sizes everything drawn.
@@ -27,6 +29,10 @@ THIN_RIM, THICK_RIM, RIM_GREY = 0.02, 0.065, 28.0
 #: The glasses copy's reflection: its strongest cover (share of white), and the period (frames) over which it
 #: comes, slides across the lenses and goes (present half of the time).
 GLARE, GLARE_PERIOD = 0.6, 150
+#: The sleeve copy's sleeve: its RGB colour, half height and half width (eye-centre distances), the frames it
+#: takes to pass (from one eye distance above the eyes to 1.5 below them) and the period (frames) it passes in,
+#: starting :data:`SLEEVE_PERIOD` / 4 frames into each.
+SLEEVE_RGB, SLEEVE_SIZE, SLEEVE_FRAMES, SLEEVE_PERIOD = (60.0, 45.0, 40.0), (0.4, 1.6), 21, 120
 
 
 def _index() -> dict[str, int]:
@@ -181,5 +187,31 @@ def glasses_copy_frame(rgb: np.ndarray, curves: np.ndarray, i: int) -> np.ndarra
     return wear_glasses(rgb, curves, THICK_RIM, glare, 4.0 * phase - 1.0)
 
 
+def pass_sleeve(rgb: np.ndarray, curves: np.ndarray, t: float) -> np.ndarray:
+    """The RGB frame with the sleeve (:data:`SLEEVE_RGB`, :data:`SLEEVE_SIZE`) across the face of the curves
+    (C, 4, 2), ``t`` (0 to 1) of its way down: its middle from one eye distance above the eyes' midpoint to 1.5
+    under it, along the face's down direction, level with the eyes' line."""
+    import cv2
+
+    right, left, d, across, down = _eye_frame(curves)
+    middle = 0.5 * (right + left) + d * (-1.0 + 2.5 * t) * down
+    half_h, half_w = SLEEVE_SIZE
+    corners = np.array([middle + d * (sx * half_w * across + sy * half_h * down)
+                        for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1))])
+    out = rgb.copy()
+    cv2.fillConvexPoly(out, np.round(corners * 4).astype(np.int32), SLEEVE_RGB, lineType=cv2.LINE_AA, shift=2)
+    return out
+
+
+def sleeved(src: Path, model: str):
+    """The frames (RGB uint8) of the ``sleeve`` copy of the video ``src``: the sleeve passes down across the face
+    over :data:`SLEEVE_FRAMES` frames, a quarter into every :data:`SLEEVE_PERIOD` frames, on MediaPipe's curves
+    of each frame; a frame without a face is left as it is."""
+    for i, rgb, curves in _faces(src, model):
+        k = i % SLEEVE_PERIOD - SLEEVE_PERIOD // 4
+        passing = curves is not None and 0 <= k < SLEEVE_FRAMES
+        yield pass_sleeve(rgb, curves, k / (SLEEVE_FRAMES - 1)) if passing else rgb
+
+
 #: The drawn copies: name -> frames of the copy of a video, given MediaPipe's model file.
-DRAWN = {"beard": bearded, "glasses": spectacled}
+DRAWN = {"beard": bearded, "glasses": spectacled, "sleeve": sleeved}

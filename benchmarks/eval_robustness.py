@@ -51,7 +51,9 @@ Drawn on the face (around MediaPipe's curves of each frame; ``drawn.py``):
 
 - ``beard``: a dark moustache and a short beard of hair strands that move with the face;
 - ``glasses``: thick dark rims, the bridge and the arms, and a bright reflection that comes and goes on the
-  lenses, sliding across them.
+  lenses, sliding across them;
+- ``sleeve``: a dark sleeve passing down across the upper face in 21 frames of every 120 (0.7 s every 4 s at 30
+  frames a second: something passing in front of the face; the eyes hidden, the face lost and found again).
 
 Each copy is written as MPEG-4 into a temporary folder, tracked with ``--backend color`` and the built-in
 profile (no landmark model: the copies test the colour pipeline alone), and scored by
@@ -60,7 +62,7 @@ The bars of the shared clips are NME <= 0.05, jitter ratio <= 1.5, coverage >= 0
 
 Run: ``python benchmarks/eval_robustness.py [--clips performer_a performer_c] [--variants dim warm noisy small
 face80 cool rolled mirrored portrait darker deep lowres backlit haze long short grey hd sidelit toplit lamp_left
-lamp_right wood beige skin_object poster stage_hand beard glasses] [--assets PATH] [--jobs 2]``
+lamp_right wood beige skin_object poster stage_hand beard glasses sleeve] [--assets PATH] [--jobs 2]``
 (about 20 s per copy of a or c on one core, MediaPipe's reference included; ``performer_b_exaggerated`` is
 three times as long).
 """

@@ -251,3 +251,24 @@ def test_a_face_stretched_one_way_keeps_the_size_of_the_axis_that_changed_least(
     follower.start(scene, start)
     moved = follower.follow(stretched(1.2, 1.0), start.crop_matrix(px), sizes)
     assert moved is not None and abs(moved.unit / start.unit - 1.2) < 0.01
+
+
+def test_a_crop_textured_along_one_direction_only_is_no_alignment_not_an_error():
+    """A crop whose shading runs only down the frame (a sleeve's edge filling it, a smooth shade over a covered
+    lens) leaves the affine's sideways parameters free: the alignment fails (None) and the follower keeps where it
+    was."""
+    from facepuppet.capture.color.face import CROP_EXTENT
+    from facepuppet.capture.color.follow import Follower
+
+    px = 40.0
+    size = (int(round((CROP_EXTENT[2] - CROP_EXTENT[0]) * px)), int(round((CROP_EXTENT[3] - CROP_EXTENT[1]) * px)))
+    scene = _textured_scene()
+    start = FaceFrame(np.array([320.0, 220.0]), np.array([60.0, 0.0]))
+    follower = Follower(size, px, FollowConfig(iterations=50))
+    follower.start(scene, start)
+    shade = np.repeat(np.linspace(30, 220, 480)[:, None], 640, axis=1).astype(np.uint8)
+    rows_only = np.dstack([shade, shade, shade])
+    A = start.crop_matrix(px)
+    assert follower.follow(rows_only, A) is None and follower.correlation is None
+    assert np.allclose(follower.aligned().origin, start.origin)
+    assert follower.follow(scene, A) is not None and follower.correlation > 0.99     # the face itself: a match

@@ -222,7 +222,12 @@ class Follower:
         guess = then_affine(cv2.invertAffineTransform(self.followed), A)
         guess[:, 2] *= f
         self.correlation = None
-        ok, cc, W = ecc_affine(self.template, self.grey(rgb, A), guess, self.config.iterations, ECC_EPS)
+        try:
+            ok, cc, W = ecc_affine(self.template, self.grey(rgb, A), guess, self.config.iterations, ECC_EPS)
+        except np.linalg.LinAlgError:
+            # The crop's texture cannot fix every parameter of the affine (its gradients all along one direction:
+            # a sleeve's edge filling it, a smooth shade across a covered lens): no alignment.
+            return None
         if not ok:
             return None
         self.correlation = float(cc)
