@@ -181,9 +181,9 @@ def _textured_scene(seed=3, shape=(480, 640)):
     return np.dstack([grey, grey, grey])
 
 
-def test_the_follower_refuses_an_alignment_of_the_wrong_size_and_keeps_where_it_was():
-    import cv2
-
+def _follower_started():
+    """A follower (40 crop pixels a face unit) started on :func:`_textured_scene` with a face of 60 pixels at
+    (320, 220): (follower, scene, face frame, px)."""
     from facepuppet.capture.color.face import CROP_EXTENT
     from facepuppet.capture.color.follow import Follower
 
@@ -193,6 +193,13 @@ def test_the_follower_refuses_an_alignment_of_the_wrong_size_and_keeps_where_it_
     start = FaceFrame(np.array([320.0, 220.0]), np.array([60.0, 0.0]))
     follower = Follower(size, px, FollowConfig(iterations=50))
     follower.start(scene, start)
+    return follower, scene, start, px
+
+
+def test_the_follower_refuses_an_alignment_of_the_wrong_size_and_keeps_where_it_was():
+    import cv2
+
+    follower, scene, start, px = _follower_started()
     # The scene grown by 8 % about the face's origin: the face is now 8 % bigger, where it was.
     grow = cv2.getRotationMatrix2D((320.0, 220.0), 0.0, 1.08)
     grown = cv2.warpAffine(scene, grow, (640, 480), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
@@ -257,15 +264,7 @@ def test_a_crop_textured_along_one_direction_only_is_no_alignment_not_an_error()
     """A crop whose shading runs only down the frame (a sleeve's edge filling it, a smooth shade over a covered
     lens) leaves the affine's sideways parameters free: the alignment fails (None) and the follower keeps where it
     was."""
-    from facepuppet.capture.color.face import CROP_EXTENT
-    from facepuppet.capture.color.follow import Follower
-
-    px = 40.0
-    size = (int(round((CROP_EXTENT[2] - CROP_EXTENT[0]) * px)), int(round((CROP_EXTENT[3] - CROP_EXTENT[1]) * px)))
-    scene = _textured_scene()
-    start = FaceFrame(np.array([320.0, 220.0]), np.array([60.0, 0.0]))
-    follower = Follower(size, px, FollowConfig(iterations=50))
-    follower.start(scene, start)
+    follower, scene, start, px = _follower_started()
     shade = np.repeat(np.linspace(30, 220, 480)[:, None], 640, axis=1).astype(np.uint8)
     rows_only = np.dstack([shade, shade, shade])
     A = start.crop_matrix(px)
