@@ -175,3 +175,19 @@ def test_an_eye_opened_wide_is_still_read_by_its_opening(rng):
     ok, found = _search(crop, C)
     assert ok
     np.testing.assert_allclose(found[:, 0], [36.0, 84.0], atol=0.6)
+
+
+def _lit(crop, gains):
+    """The crop under a light of the colour ``gains`` (R, G, B)."""
+    return np.clip(crop.astype(np.float32) * np.float32(gains) + 0.5, 0, 255).astype(np.uint8)
+
+
+def test_an_eye_in_a_warm_light_is_placed_by_its_white_not_its_eyeliner(rng):
+    # A warm lamp tints the eyes' white with the skin: against the cheeks' chroma it no longer passes for an
+    # opening, and an eyeliner's wing draws the mean shift outward. In the colours the crop would have in a white
+    # light (each side's cheek brought to an average skin's chromaticity) the white is found again.
+    crop, C = _face(EYES, wing=8, rng=rng)
+    for gains in ((0.91, 0.665, 0.455), (0.8, 0.6, 0.4)):     # a warm lamp in a dim room
+        ok, found = _search(_lit(crop, gains), C)
+        assert ok
+        np.testing.assert_allclose(found[:, 0], [36.0, 84.0], atol=0.6)

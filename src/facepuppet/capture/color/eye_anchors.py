@@ -21,6 +21,7 @@ import numpy as np
 
 from facepuppet._util.jit import INNER, KERNEL
 from facepuppet.capture.color.lids import EYES
+from facepuppet.capture.color.white_lit import white_lit
 from facepuppet.capture.curves import bezier_points
 
 __all__ = ["EYE_STEPS", "EYE_LEAST", "EYE_TALL", "EYE_TALL_LEVEL", "OPENING", "OPENING_TABLE", "eye_centres",
@@ -258,6 +259,110 @@ def dark_centres(D: np.ndarray, anchors: np.ndarray, half_w: int, half_h: int, a
     return True, out
 
 
+@nb.njit(**INNER)
+def _band(crop: np.ndarray, bt: int, bb: int, gains: np.ndarray, skin: np.ndarray, middle: float):
+    """The luma of the crop's rows bt..bb-1 ((bb - bt, W)), its integral image ((bb - bt + 1, W + 1): row i + 1
+    sums the band's rows up to i) and each pixel's chroma projected on its side's skin chroma, of the crop's
+    pixels times their side's ``gains`` (2, 3); ``skin`` (2, 3): each side's (luma, Cr - 128, Cb - 128); the sides
+    are the columns left and right of ``middle``."""
+    w = crop.shape[1]
+    n = max(bb - bt, 0)
+    luma = np.empty((n, w))
+    proj = np.empty((n, w))
+    integral = np.zeros((n + 1, w + 1))
+    for i in range(n):
+        y = bt + i
+        row = 0.0
+        for x in range(w):
+            side = 1 if x >= middle else 0
+            r = float(crop[y, x, 0]) * gains[side, 0]
+            g = float(crop[y, x, 1]) * gains[side, 1]
+            bl = float(crop[y, x, 2]) * gains[side, 2]
+            v = 0.299 * r + 0.587 * g + 0.114 * bl
+            luma[i, x] = v
+            proj[i, x] = 0.713 * (r - v) * skin[side, 1] + 0.564 * (bl - v) * skin[side, 2]
+            row += v
+            integral[i + 1, x + 1] = integral[i, x + 1] + row
+    return luma, proj, integral
+
+
+@nb.njit(**INNER)
+def _openings(luma: np.ndarray, proj: np.ndarray, integral: np.ndarray, skin: np.ndarray, middle: float,
+              anchors: np.ndarray, out: np.ndarray, rows: tuple, unit: float, table: np.ndarray):
+    """Each eye's opening in the band of :func:`_band` (``rows``: the band's top row, the local boxes' bottom row,
+    the band's bottom row, the local box's half size, the runs' length and the crop's height, pixels): its ends
+    (2, 2) (inner and outer, crop pixels), whether it was read (2,) and its area (2,) (pixels), in the windows of
+    :func:`eye_opening_centres`, around ``anchors`` along the eye and at the heights of ``out``."""
+    bt, box_bottom, bb, r_box, tall, h = rows
+    w = luma.shape[1]
+    most_chroma = np.empty(2)
+    least_luma = np.empty(2)
+    for side in range(2):
+        most_chroma[side] = table[0] * (skin[side, 1] * skin[side, 1] + skin[side, 2] * skin[side, 2])
+        least_luma[side] = table[1] * skin[side, 0]
+    least = table[3] * unit * unit
+    half = max(int(np.round(table[11] * unit)), 1)
+    cols = np.zeros(2 * half + 1)
+    ends = np.zeros((2, 2))                 # each eye's opening: inner and outer end, crop pixels
+    seen = np.zeros(2, np.bool_)
+    area = np.zeros(2)                      # opening pixels of each eye in the last window read
+    for k in range(2):
+        cx, cy = anchors[k, 0], out[k, 1]
+        out_dir = -1.0 if k == 0 else 1.0   # outward along x: the right eye is at the image's left
+        y0 = max(int(np.round(cy - table[7] * unit)), 0)
+        y1 = min(int(np.round(cy + table[8] * unit)) + 1, h)
+        for _ in range(int(table[6])):
+            x0 = int(np.round(cx)) - half
+            cols[:] = 0.0
+            n = 0.0
+            for x in range(max(x0, 0), min(x0 + 2 * half + 1, w)):
+                xa, xb = max(x - r_box, 0), min(x + r_box + 1, w)
+                side = 1 if x >= middle else 0
+                chroma_max, luma_min = most_chroma[side], least_luma[side]
+                # A column outward of the eye's expected centre whose pixels of the opening's colour run on for
+                # ``tall`` down from the window's bottom row is a light wall beside the face (a turned head's far
+                # eye), not an eye's white: under an eye (and under a lens's reflection) lies the cheek. Inward,
+                # under the inner corner, a lit nose or cheek may be as pale, and the background never lies there.
+                if (x - anchors[k, 0]) * out_dir > 0.0:
+                    run = 0
+                    for y in range(y1 - 1, min(y1 - 1 + tall, bb)):
+                        if proj[y - bt, x] >= chroma_max or luma[y - bt, x] <= luma_min:
+                            break
+                        run += 1
+                    if run >= tall:
+                        continue
+                for y in range(y0, y1):
+                    v = luma[y - bt, x]
+                    if proj[y - bt, x] >= chroma_max or v <= luma_min:
+                        continue
+                    ya, yb = max(y - r_box, bt), min(y + r_box + 1, box_bottom)
+                    ia, ib = ya - bt, yb - bt
+                    local = (integral[ib, xb] - integral[ia, xb] - integral[ib, xa] + integral[ia, xa]) / (
+                        (yb - ya) * (xb - xa))
+                    if v >= table[10] * local:
+                        cols[x - x0] += 1.0
+                        n += 1.0
+            if n < least:
+                break
+            # The columns (interpolated) where the running count passes tail and 1 - tail of the pixels.
+            lo, hi = table[2] * n, (1.0 - table[2]) * n
+            run = 0.0
+            a = b = -1.0
+            for j in range(cols.size):
+                nxt = run + cols[j]
+                if a < 0 and nxt >= lo:
+                    a = j + (lo - run) / cols[j]
+                if b < 0 and nxt >= hi:
+                    b = j + (hi - run) / cols[j]
+                run = nxt
+            a, b = x0 + a - 0.5, x0 + b - 0.5
+            ends[k, 0], ends[k, 1] = (b, a) if k == 0 else (a, b)
+            cx = 0.5 * (a + b) - out_dir * table[5] * unit
+            seen[k] = True
+            area[k] = n
+    return ends, seen, area
+
+
 @nb.njit(**KERNEL)
 def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anchors: np.ndarray, half_w: int,
                         half_h: int, unit: float, table: np.ndarray, dark: bool):
@@ -279,10 +384,14 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
     pupil and shadow by its light: a pixel belongs to it when its chroma along the cheeks' (Cr, Cb) direction
     is under ``chroma`` of the cheeks', its luma over ``luma`` of the cheeks' and at least ``lift`` times the
     mean luma of the box of half size ``local`` around it (the white of a shadowed eye is still lighter than
-    the lashes and iris beside it; the blurred rim of a dark area is not). Dark makeup beyond the corners (an
-    eyeliner's wing) and where the iris sits (the gaze) do not move the extent, as they move a mean of the
-    feature intensity. In a window ``half_width`` face units either side of the expected centre, from
-    ``above`` over to ``below`` under the height found, the extent runs between the columns that leave out
+    the lashes and iris beside it; the blurred rim of a dark area is not). An eye whose opening covers less than
+    ``full`` so, on a side of the crop whose cheek's colour says the light is coloured, is looked for again in the
+    colours that side would have in a white light (:func:`~.white_lit.white_lit`: its cheek brought to an average
+    skin's chromaticity, the test against that skin), and that opening is taken where it is larger: a warm lamp
+    tints the white with the skin's colour. Dark makeup beyond the corners (an eyeliner's wing) and where the
+    iris sits (the gaze) do not move the extent, as they move a mean of the feature intensity. In a window
+    ``half_width`` face units either side of the expected centre, from ``above`` over to ``below`` under the
+    height found, the extent runs between the columns that leave out
     ``tail`` of the opening's pixels at either end; the window is re-centred on its midpoint ``steps`` times.
     A column outward of the expected centre whose pixels of the opening's chroma and luma run on for ``tall``
     down from the window's bottom row is left out: a light wall beside a turned head's far eye runs on, under an
@@ -328,88 +437,32 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
     s2 = skin[1] * skin[1] + skin[2] * skin[2]
     if s2 < 1.0:
         return ok, out                      # no skin chroma to tell the opening from
-    chroma_max, luma_min = table[0] * s2, table[1] * skin[0]
-    least = table[3] * unit * unit
     r_box = max(int(np.round(table[9] * unit)), 1)
-    # Luma and its integral image (for the local means), and the chroma projected on the skin's, in the band
-    # of rows the two windows and their boxes cover, and ``tall`` further down (the runs' test).
+    # The band of rows the two windows and their boxes cover, and ``tall`` further down (the runs' test).
     tall = max(int(np.round(table[20] * unit)), 2)
     bt = max(int(np.round(min(out[0, 1], out[1, 1]) - table[7] * unit)) - r_box, 0)
     box_bottom = min(int(np.round(max(out[0, 1], out[1, 1]) + table[8] * unit)) + 1 + r_box, h)
     bb = min(box_bottom + tall, h)
-    # Row i of the band's arrays is the crop's row bt + i (the integral image's row i + 1 sums the band's rows
-    # up to it).
-    nb_rows = max(bb - bt, 0)
-    luma = np.empty((nb_rows, w))
-    proj = np.empty((nb_rows, w))
-    integral = np.zeros((nb_rows + 1, w + 1))
-    for i in range(nb_rows):
-        y = bt + i
-        row = 0.0
-        for x in range(w):
-            r, g, bl = float(crop[y, x, 0]), float(crop[y, x, 1]), float(crop[y, x, 2])
-            v = 0.299 * r + 0.587 * g + 0.114 * bl
-            luma[i, x] = v
-            proj[i, x] = 0.713 * (r - v) * skin[1] + 0.564 * (bl - v) * skin[2]
-            row += v
-            integral[i + 1, x + 1] = integral[i, x + 1] + row
-    half = max(int(np.round(table[11] * unit)), 1)
-    cols = np.zeros(2 * half + 1)
-    ends = np.zeros((2, 2))                 # each eye's opening: inner and outer end, crop pixels
-    seen = np.zeros(2, np.bool_)
-    area = np.zeros(2)                      # opening pixels of each eye in the last window read
-    for k in range(2):
-        cx, cy = anchors[k, 0], out[k, 1]
-        out_dir = -1.0 if k == 0 else 1.0   # outward along x: the right eye is at the image's left
-        y0 = max(int(np.round(cy - table[7] * unit)), 0)
-        y1 = min(int(np.round(cy + table[8] * unit)) + 1, h)
-        for _ in range(int(table[6])):
-            x0 = int(np.round(cx)) - half
-            cols[:] = 0.0
-            n = 0.0
-            for x in range(max(x0, 0), min(x0 + 2 * half + 1, w)):
-                xa, xb = max(x - r_box, 0), min(x + r_box + 1, w)
-                # A column outward of the eye's expected centre whose pixels of the opening's colour run on for
-                # ``tall`` down from the window's bottom row is a light wall beside the face (a turned head's far
-                # eye), not an eye's white: under an eye (and under a lens's reflection) lies the cheek. Inward,
-                # under the inner corner, a lit nose or cheek may be as pale, and the background never lies there.
-                if (x - anchors[k, 0]) * out_dir > 0.0:
-                    run = 0
-                    for y in range(y1 - 1, min(y1 - 1 + tall, bb)):
-                        if proj[y - bt, x] >= chroma_max or luma[y - bt, x] <= luma_min:
-                            break
-                        run += 1
-                    if run >= tall:
-                        continue
-                for y in range(y0, y1):
-                    v = luma[y - bt, x]
-                    if proj[y - bt, x] >= chroma_max or v <= luma_min:
-                        continue
-                    ya, yb = max(y - r_box, bt), min(y + r_box + 1, box_bottom)
-                    ia, ib = ya - bt, yb - bt
-                    local = (integral[ib, xb] - integral[ia, xb] - integral[ib, xa] + integral[ia, xa]) / (
-                        (yb - ya) * (xb - xa))
-                    if v >= table[10] * local:
-                        cols[x - x0] += 1.0
-                        n += 1.0
-            if n < least:
-                break
-            # The columns (interpolated) where the running count passes tail and 1 - tail of the pixels.
-            lo, hi = table[2] * n, (1.0 - table[2]) * n
-            run = 0.0
-            a = b = -1.0
-            for j in range(cols.size):
-                nxt = run + cols[j]
-                if a < 0 and nxt >= lo:
-                    a = j + (lo - run) / cols[j]
-                if b < 0 and nxt >= hi:
-                    b = j + (hi - run) / cols[j]
-                run = nxt
-            a, b = x0 + a - 0.5, x0 + b - 0.5
-            ends[k, 0], ends[k, 1] = (b, a) if k == 0 else (a, b)
-            cx = 0.5 * (a + b) - out_dir * table[5] * unit
-            seen[k] = True
-            area[k] = n
+    middle = 0.5 * (anchors[0, 0] + anchors[1, 0])
+    rows = (bt, box_bottom, bb, r_box, tall, h)
+    plain = np.empty((2, 3))
+    for side in range(2):
+        plain[side, 0], plain[side, 1], plain[side, 2] = skin[0], skin[1], skin[2]
+    luma, proj, integral = _band(crop, bt, bb, np.ones((2, 3)), plain, middle)
+    ends, seen, area = _openings(luma, proj, integral, plain, middle, anchors, out, rows, unit, table)
+    # An eye whose white is not told from the skin in a coloured light (a warm lamp tints it with the skin) is
+    # looked for again in the colours its side would have in a white light (:mod:`.white_lit`).
+    full = table[4] * unit * unit
+    if area[0] < full or area[1] < full:
+        gains, lit, tinted = white_lit(crop, cheeks, middle)
+        if tinted[0] or tinted[1]:
+            luma, proj, integral = _band(crop, bt, bb, gains, lit, middle)
+            again = _openings(luma, proj, integral, lit, middle, anchors, out, rows, unit, table)
+            for k in range(2):
+                side = 1 if anchors[k, 0] >= middle else 0
+                if area[k] < full and tinted[side] and again[2][k] > area[k]:
+                    ends[k], seen[k], area[k] = again[0][k], again[1][k], again[2][k]
+    least = table[3] * unit * unit
     # The two eyes are the same size: an opening much wider than the other's has taken in something beyond
     # its outer corner (pale makeup or skin, a reflection); it is cut to the most the other allows.
     width = np.abs(ends[:, 1] - ends[:, 0])
