@@ -260,27 +260,30 @@ def dark_centres(D: np.ndarray, anchors: np.ndarray, half_w: int, half_h: int, a
 
 
 @nb.njit(**INNER)
-def _band(crop: np.ndarray, bt: int, bb: int, gains: np.ndarray, skin: np.ndarray, middle: float):
+def _band(crop: np.ndarray, bt: int, bb: int, gains: np.ndarray, skin: np.ndarray, middle: float, lit: bool):
     """The luma of the crop's rows bt..bb-1 ((bb - bt, W)), its integral image ((bb - bt + 1, W + 1): row i + 1
-    sums the band's rows up to i) and each pixel's chroma projected on its side's skin chroma, of the crop's
-    pixels times their side's ``gains`` (2, 3); ``skin`` (2, 3): each side's (luma, Cr - 128, Cb - 128); the sides
-    are the columns left and right of ``middle``."""
+    sums the band's rows up to i) and each pixel's chroma projected on its side's skin chroma; with ``lit``, of the
+    crop's pixels times their side's ``gains`` (2, 3), else as they are (and both sides' ``skin`` the same);
+    ``skin`` (2, 3): each side's (luma, Cr - 128, Cb - 128); the sides are the columns left and right of
+    ``middle``."""
     w = crop.shape[1]
     n = max(bb - bt, 0)
     luma = np.empty((n, w))
     proj = np.empty((n, w))
     integral = np.zeros((n + 1, w + 1))
+    cr, cb = skin[0, 1], skin[0, 2]
     for i in range(n):
         y = bt + i
         row = 0.0
         for x in range(w):
-            side = 1 if x >= middle else 0
-            r = float(crop[y, x, 0]) * gains[side, 0]
-            g = float(crop[y, x, 1]) * gains[side, 1]
-            bl = float(crop[y, x, 2]) * gains[side, 2]
+            r, g, bl = float(crop[y, x, 0]), float(crop[y, x, 1]), float(crop[y, x, 2])
+            if lit:
+                side = 1 if x >= middle else 0
+                r, g, bl = r * gains[side, 0], g * gains[side, 1], bl * gains[side, 2]
+                cr, cb = skin[side, 1], skin[side, 2]
             v = 0.299 * r + 0.587 * g + 0.114 * bl
             luma[i, x] = v
-            proj[i, x] = 0.713 * (r - v) * skin[side, 1] + 0.564 * (bl - v) * skin[side, 2]
+            proj[i, x] = 0.713 * (r - v) * cr + 0.564 * (bl - v) * cb
             row += v
             integral[i + 1, x + 1] = integral[i, x + 1] + row
     return luma, proj, integral
@@ -448,7 +451,7 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
     plain = np.empty((2, 3))
     for side in range(2):
         plain[side, 0], plain[side, 1], plain[side, 2] = skin[0], skin[1], skin[2]
-    luma, proj, integral = _band(crop, bt, bb, np.ones((2, 3)), plain, middle)
+    luma, proj, integral = _band(crop, bt, bb, np.ones((2, 3)), plain, middle, False)
     ends, seen, area = _openings(luma, proj, integral, plain, middle, anchors, out, rows, unit, table)
     # An eye whose white is not told from the skin in a coloured light (a warm lamp tints it with the skin) is
     # looked for again in the colours its side would have in a white light (:mod:`.white_lit`).
@@ -456,7 +459,7 @@ def eye_opening_centres(C: np.ndarray, crop: np.ndarray, cheeks: np.ndarray, anc
     if area[0] < full or area[1] < full:
         gains, lit, tinted = white_lit(crop, cheeks, middle)
         if tinted[0] or tinted[1]:
-            luma, proj, integral = _band(crop, bt, bb, gains, lit, middle)
+            luma, proj, integral = _band(crop, bt, bb, gains, lit, middle, True)
             again = _openings(luma, proj, integral, lit, middle, anchors, out, rows, unit, table)
             for k in range(2):
                 side = 1 if anchors[k, 0] >= middle else 0
