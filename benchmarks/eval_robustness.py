@@ -55,6 +55,12 @@ Drawn on the face (around MediaPipe's curves of each frame; ``drawn.py``):
 - ``sleeve``: a dark sleeve passing down across the upper face in 21 frames of every 120 (0.7 s every 4 s at 30
   frames a second: something passing in front of the face; the eyes hidden, the face lost and found again).
 
+Two or more conditions at once (ordinary footage rarely has one thing wrong): a variant may be a chain of names
+joined by ``+``, applied in order to each frame: the first may be any copy above, the rest are the per-frame
+ones (``dim`` ... ``lamp_right``). ``wood+warm`` is the face before wood with face and wall in one warm light,
+``dim+noisy`` a dark room's noisy sensor. ``--compounds`` measures the chains of :data:`COMPOUNDS` instead of
+the variants.
+
 Each copy is written as MPEG-4 into a temporary folder, tracked with ``--backend color`` and the built-in
 profile (no landmark model: the copies test the colour pipeline alone), and scored by
 ``../shared/eval/track_agreement.py`` (mean NME against MediaPipe on the same frames, jitter ratio, coverage).
@@ -62,7 +68,7 @@ The bars of the shared clips are NME <= 0.05, jitter ratio <= 1.5, coverage >= 0
 
 Run: ``python benchmarks/eval_robustness.py [--clips performer_a performer_c] [--variants dim warm noisy small
 face80 cool rolled mirrored portrait darker deep lowres backlit haze long short grey hd sidelit toplit lamp_left
-lamp_right wood beige skin_object poster stage_hand beard glasses sleeve] [--assets PATH] [--jobs 2]``
+lamp_right wood beige skin_object poster stage_hand beard glasses sleeve | --compounds] [--assets PATH] [--jobs 2]``
 (about 20 s per copy of a or c on one core, MediaPipe's reference included; ``performer_b_exaggerated`` is
 three times as long).
 """
@@ -88,6 +94,10 @@ VARIANTS = ("dim", "warm", "noisy", "small", "face80", "cool", "rolled", "mirror
             "lowres", "backlit", "haze", "long", "short", "grey", "hd", "sidelit", "toplit", "lamp_left", "lamp_right")
 BACKGROUNDS = ("wood", "beige", "skin_object", "poster", "stage_hand")
 DRAWN = tuple(drawn.DRAWN)
+#: Chains of two or three conditions (``--compounds``): a webcam's noisy, JPEG-coded stream in a dark, warm or cool
+#: room, a wall of the face's colour in the same warm light, glasses on a small or deep-skinned face, and so on.
+COMPOUNDS = ("dim+noisy", "warm+noisy+lowres", "small+noisy", "wood+warm", "glasses+lowres", "beard+dim",
+             "cool+face80", "sidelit+noisy", "grey+small", "backlit+lowres", "glasses+deep", "beige+dim+noisy")
 #: The face cut out: an oval centred this far below the eyes, with these half-axes (eye-centre distances).
 FACE_OVAL = (0.8, 1.2, 1.75)
 STAGE_SCALE = 0.42          # the stage copy's frame scale (a face about 90-115 px wide)
@@ -354,16 +364,19 @@ def composited(src: Path, variant: str, model: str):
 
 def write_copy(src: Path, variant: str, out: Path, model: str | None = None) -> None:
     """Write the ``variant`` copy of the video ``src`` to ``out`` (MPEG-4, same rate, same size but for
-    ``lowres``); the background and drawn copies and ``face80`` need MediaPipe's ``model`` file."""
+    ``lowres``; a chain ``a+b+...`` applies its copies in order); the background and drawn copies and ``face80``
+    need MediaPipe's ``model`` file."""
     import cv2
 
+    first, *rest = variant.split("+")
     cap = cv2.VideoCapture(str(src))
     fps = cap.get(cv2.CAP_PROP_FPS) or 30.0
     rng = np.random.default_rng(0)
-    unit = face_unit(src, model) if variant == "face80" else None
     writer = None
-    scenes = composited(src, variant, model) if variant in BACKGROUNDS else (
-        drawn.DRAWN[variant](src, model) if variant in DRAWN else None)
+    scenes = composited(src, first, model) if first in BACKGROUNDS else (
+        drawn.DRAWN[first](src, model) if first in DRAWN else None)
+    alter = rest if scenes is not None else [first, *rest]
+    unit = face_unit(src, model) if "face80" in alter else None
     while True:
         ok, bgr = cap.read()
         if not ok:
@@ -373,7 +386,9 @@ def write_copy(src: Path, variant: str, out: Path, model: str | None = None) -> 
             if rgb is None:
                 break
         else:
-            rgb = altered(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), variant, rng, unit)
+            rgb = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+        for step in alter:
+            rgb = altered(rgb, step, rng, unit)
         if writer is None:
             writer = cv2.VideoWriter(str(out), cv2.VideoWriter_fourcc(*"mp4v"), fps, rgb.shape[1::-1])
         writer.write(cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
@@ -407,11 +422,24 @@ def measure(job: tuple[str, str, str, str]) -> tuple[str, str, str]:
     return clip, variant, lines[0] if lines else f"yardstick failed: {done.stderr.strip()[-200:]}"
 
 
+def variant_name(text: str) -> str:
+    """``text`` if it names a copy or a chain of them (``a+b+...``: any copy first, then per-frame ones); else
+    :class:`argparse.ArgumentTypeError`."""
+    parts = text.split("+")
+    for i, part in enumerate(parts):
+        known = VARIANTS + BACKGROUNDS + DRAWN if i == 0 else VARIANTS
+        if part not in known:
+            where = "" if len(parts) == 1 else f" (part {i + 1} of {text!r}: after the first, only per-frame copies)"
+            raise argparse.ArgumentTypeError(f"unknown copy {part!r}{where}; choose from {', '.join(known)}")
+    return text
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--clips", nargs="+", default=["performer_a", "performer_c"])
-    ap.add_argument("--variants", nargs="+", default=list(VARIANTS + BACKGROUNDS + DRAWN),
-                    choices=VARIANTS + BACKGROUNDS + DRAWN)
+    ap.add_argument("--variants", nargs="+", type=variant_name, default=list(VARIANTS + BACKGROUNDS + DRAWN),
+                    help="copies, or chains of them joined by '+' (default: every single copy)")
+    ap.add_argument("--compounds", action="store_true", help=f"measure the chains {' '.join(COMPOUNDS)} instead")
     ap.add_argument("--assets", default=str(ROOT.parent / "shared" / "assets"))
     ap.add_argument("--jobs", type=int, default=2, help="copies measured at once (processes)")
     args = ap.parse_args(argv)
@@ -422,7 +450,8 @@ def main(argv=None) -> int:
     print(f"{'copy':24s} {'NME':>7s} {'jitter':>7s} {'coverage':>9s}")
     with tempfile.TemporaryDirectory(prefix="facepuppet-robust-") as tmp, \
             ProcessPoolExecutor(max(1, args.jobs)) as pool:
-        jobs = [(c, v, args.assets, tmp) for c in args.clips for v in args.variants]
+        variants = COMPOUNDS if args.compounds else args.variants
+        jobs = [(c, v, args.assets, tmp) for c in args.clips for v in variants]
         for clip, variant, line in pool.map(measure, jobs):
             m = re.search(r"MediaPipe ([\d.nan]+); jitter ratio ([\d.nan]+); coverage ([\d.]+)", line)
             if m:

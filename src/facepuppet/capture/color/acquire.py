@@ -37,6 +37,7 @@ from facepuppet.capture.color.measure import Measurement, Placement
 from facepuppet.capture.color.profile import Profile
 from facepuppet.capture.color.refind import LOST_REACH, LostFace, likeness
 from facepuppet.capture.color.transform import skin_fraction
+from facepuppet.capture.color.white_lit import skin_light
 from facepuppet.capture.curves import CURVE_NAMES, bezier_points
 
 __all__ = ["Acquirer", "Measurer", "CANDIDATE_SHIFTS", "CANDIDATE_SCALES", "LIGHT_PERCENTILE", "LIGHT_TOP",
@@ -69,7 +70,7 @@ ANCHOR_STEPS = 4                        # steps         most eye searches to fin
 ANCHOR_TOLERANCE = 0.25                 # crop pixels   step below which the fixed point is found
 WINDOW_SIZE_COST = 0.6                  # per log size  likeness a candidate loses off the size of its window's face
 SAME_ROLL = 0.1                         # radians       candidates closer in roll (and in place and size) are one
-WINDOW_SKIN = 0.3                       # fraction      of a cascade window's middle that must look like skin
+WINDOW_SKIN = 0.3                       # fraction      of a window's middle looking like skin (below: likeness decides)
 #: Between the brows, above the eyes (face units x0, y0, x1, y1): skin on every face, never on a skin-coloured
 #: object whose dark surroundings the eye search took for eyes.
 GLABELLA = (-0.1, -0.5, 0.1, -0.1)
@@ -119,8 +120,8 @@ def skin_between_brows(crop: np.ndarray, skins: list[SkinModel], px: float) -> b
     return any(skin_fraction(crop, box, s.table()) > GLABELLA_SKIN for s in skins)
 
 
-def _skin_share(rgb: np.ndarray, win: FaceWindow, skin) -> float:
-    """Share of the middle half (each way, upright) of a window the skin model takes for skin."""
+def _middle(rgb: np.ndarray, win: FaceWindow) -> np.ndarray:
+    """The middle half (each way, upright) of a window, (h, w, 3) (empty where it lies outside the frame)."""
     w = h = win.width
     back = cv2.invertAffineTransform(win.to_box)
     bx, by, bw, bh = (float(v) for v in win.box)
@@ -129,9 +130,13 @@ def _skin_share(rgb: np.ndarray, win: FaceWindow, skin) -> float:
     H, W = rgb.shape[:2]
     x0, x1 = int(max(0, x + 0.25 * w)), int(min(W, x + 0.75 * w))
     y0, y1 = int(max(0, y + 0.25 * h)), int(min(H, y + 0.75 * h))
-    if x1 <= x0 or y1 <= y0:
-        return 0.0
-    return float((skin_probability(np.ascontiguousarray(rgb[y0:y1, x0:x1]), skin) > 0).mean())
+    return np.ascontiguousarray(rgb[y0:max(y1, y0), x0:max(x1, x0)])
+
+
+def _skin_share(rgb: np.ndarray, win: FaceWindow, skin) -> float:
+    """Share of the middle half (each way, upright) of a window the skin model takes for skin."""
+    middle = _middle(rgb, win)
+    return float((skin_probability(middle, skin) > 0).mean()) if middle.size else 0.0
 
 
 def _same_roll(a: FaceFrame, b: FaceFrame) -> bool:
@@ -234,16 +239,19 @@ class Acquirer:
             for skin in skins:
                 frame = find_face(shown, skin, roi=roi)
                 if frame is not None:
-                    hypotheses.append((M, frame))
+                    hypotheses.append((M, frame, False))
         # Windows with a face's pattern of dark features, upright or tilted: candidates of their own, and the
         # support a candidate needs in a scene the skin model cannot tell from skin. Where a skin model finds some
-        # skin region (skin-coloured scenes included), a window is taken only where its middle looks like skin
-        # (in the frame as filmed or with its light evened out: a cool or dim light moves a face's skin out of the
-        # skin model; a window is tried in the light its skin shows most in). Where none finds any (a monochrome
-        # or infrared camera, black-and-white footage, a strongly coloured light), every window is taken, in the
-        # evened-out light (a grey frame's levels stretched), and its candidates need the likeness of a crop
-        # without skin (``acquire.min_skinless_score``) like any other. Not when a landmark model is given
-        # explicitly (it places the faces the skin model misses).
+        # skin region (skin-coloured scenes included), a window whose middle looks like skin (in the frame as
+        # filmed or with its light evened out: a cool or dim light moves a face's skin out of the skin model) is
+        # tried in the light its skin shows most in. One whose middle looks like skin in neither (a face and a wall
+        # of its colour in one strongly coloured light: as filmed the face lies outside the skin model, evened out
+        # over the frame it turns grey with the wall) is tried in both and in the light that gives its middle an
+        # average skin's colour (:func:`~.white_lit.skin_light`), and its candidates need the likeness of a crop
+        # without skin (``acquire.min_skinless_score``) in all three. Where no skin model finds any skin (a
+        # monochrome or infrared camera, black-and-white footage), every window is taken in the evened-out light
+        # (a grey frame's levels stretched), and its candidates need that likeness like any other. Not when a
+        # landmark model is given explicitly (it places the faces the skin model misses).
         skinless = not hypotheses
         use = cfg.acquire.cascade and cfg.landmarks.model is None
         if use and roi is None:
@@ -252,27 +260,34 @@ class Acquirer:
             use, self.cascade_wait = self.cascade_wait <= 0, max(self.cascade_wait - 1, 0)
         windows = []
         for win in face_windows(rgb, roi) if use else []:
+            windows.append(win)
             if skinless:
-                windows.append(win)
-                hypotheses.append((lights[-1][0], win.frame()))
+                hypotheses.append((lights[-1][0], win.frame(), False))
                 continue
             share, M = max(((max(_skin_share(x, win, k) for k in skins), i) for i, (_, x) in enumerate(lights)))
             if share >= WINDOW_SKIN:
-                windows.append(win)
-                hypotheses.append((lights[M][0], win.frame()))
+                hypotheses.append((lights[M][0], win.frame(), False))
+                continue
+            own = skin_light(_middle(rgb, win))
+            hypotheses += [(m, win.frame(), True) for m, _ in lights]
+            hypotheses += [(own, win.frame(), True)] if own is not None else []
         if last is not None:
-            hypotheses[:0] = [(last_light, last.frame), (last_light, last.at_its_size())]
+            hypotheses[:0] = [(last_light, last.frame, False), (last_light, last.at_its_size(), False)]
 
         def value(result: Measurement) -> float:
             return self.value(result, last, windows)
 
-        for M, frame in hypotheses:
-            if frame.unit < MIN_UNIT or any(same_frame(frame, f) and _same_roll(frame, f) for f in seen):
+        # A place already tried is not tried again, unless it is a window without skin's in another light.
+        for M, frame, unlit in hypotheses:
+            if frame.unit < MIN_UNIT or any(same_frame(frame, f) and _same_roll(frame, f) and (m is M or not unlit)
+                                            for m, f in seen):
                 continue
-            seen.append(frame)
+            seen.append((M, frame))
             place.light = M
             got = self.refine(rgb, candidate_frames(frame), last, windows)
-            if got is not None and (best is None or value(got) > value(best)):
+            if got is None or (unlit and got.score < cfg.acquire.min_skinless_score):
+                continue
+            if best is None or value(got) > value(best):
                 best, light = got, M
         place.light = (light if light is None or best is None
                        else fit_light(rgb, best.frame, light, cfg.measure.px, self.tracker.crop_size))

@@ -1,11 +1,15 @@
 """The colours each side of a face crop would have in a white light (von Kries), for the eye search's test of the
-eye's white against the skin.
+eye's white against the skin; and the light a patch would be in if it were skin, for the search for the face.
 
 A light's colour scales each channel: under a warm lamp the white of the eye takes the lamp's colour and the skin
 both the lamp's and its own, and tested against the skin's chroma (:func:`~.eye_anchors.eye_opening_centres`) the
 white passes for skin. Scaled so that the cheek on its side has the chromaticity of an average skin in a white
 light (:data:`WHITE_LIT_SKIN`; R + G + B kept), each side of the crop shows the white as it is against the skin,
 whatever the light's colour on that side.
+
+The search for the face tries a cascade window whose middle looks like skin in no light it knows (a face and a
+wall of its colour in one strongly coloured light) in the light that gives that middle an average skin's colour
+(:func:`skin_light`): if it is a face, that light is the one it is in.
 
 Conventions: crop pixels of one face crop (x right, y down), RGB uint8; the crop's two sides are the columns left
 (row 0) and right (row 1) of a middle column (the eyes' midpoint).
@@ -18,7 +22,7 @@ import numpy as np
 
 from facepuppet._util.jit import INNER, KERNEL
 
-__all__ = ["WHITE_LIT_SKIN", "TINTED", "side_colours", "white_lit"]
+__all__ = ["WHITE_LIT_SKIN", "TINTED", "side_colours", "skin_light", "white_lit"]
 
 #: The chromaticity (shares of R, G and B) of an average skin under a white light.
 WHITE_LIT_SKIN = np.array([0.41, 0.315, 0.275])
@@ -84,3 +88,16 @@ def white_lit(crop: np.ndarray, cheeks: np.ndarray, middle: float) -> tuple[np.n
         v = 0.299 * r + 0.587 * g + 0.114 * b
         skin[side, 0], skin[side, 1], skin[side, 2] = v, 0.713 * (r - v), 0.564 * (b - v)
     return gains, skin, tinted
+
+
+def skin_light(patch: np.ndarray) -> np.ndarray | None:
+    """The colour transform (3, 4) for ``cv2.transform`` that gives the median colour of ``patch`` (H, W, 3) uint8
+    the chromaticity :data:`WHITE_LIT_SKIN` with its R + G + B kept (channel gains, no offset): the light a patch
+    of skin is seen in, undone (von Kries); None for an empty patch or one with a channel whose median is 0."""
+    if patch.size == 0:
+        return None
+    med = np.median(patch.reshape(-1, 3), axis=0).astype(float)
+    if med.min() <= 0.0:
+        return None
+    gains = WHITE_LIT_SKIN * med.sum() / med
+    return np.column_stack([np.diag(gains), np.zeros(3)])

@@ -1,0 +1,31 @@
+"""The colours a face would have in a white light: a patch of skin's light undone (``white_lit.skin_light``)."""
+
+import cv2
+import numpy as np
+
+from facepuppet.capture.color.white_lit import WHITE_LIT_SKIN, skin_light
+
+
+def _chroma(rgb):
+    m = np.median(rgb.reshape(-1, 3), axis=0).astype(float)
+    return m / m.sum(), m.sum()
+
+
+def test_a_skin_patch_in_a_coloured_light_gets_an_average_skins_colour_back():
+    rng = np.random.default_rng(2)
+    skin = 600.0 * WHITE_LIT_SKIN                       # an average skin in a white light, R + G + B = 600
+    for gains in ((1.3, 0.95, 0.65), (0.8, 1.0, 1.25), (0.6, 0.7, 0.85)):
+        lit = skin * gains
+        patch = np.clip(lit + rng.normal(0.0, 4.0, (40, 30, 3)), 0, 255).astype(np.uint8)
+        M = skin_light(patch)
+        assert M.shape == (3, 4) and np.all(M[:, 3] == 0) and np.count_nonzero(M[:, :3] - np.diag(np.diag(M))) == 0
+        chroma, total = _chroma(cv2.transform(patch, M))
+        assert np.abs(chroma - WHITE_LIT_SKIN).max() < 0.005, (gains, chroma)
+        assert abs(total - _chroma(patch)[1]) < 4.0, (gains, total)       # the brightness kept, to rounding
+
+
+def test_a_patch_without_a_channel_or_without_pixels_has_no_light():
+    blue = np.zeros((10, 10, 3), np.uint8)
+    blue[..., 2] = 200
+    assert skin_light(blue) is None
+    assert skin_light(np.zeros((0, 5, 3), np.uint8)) is None
