@@ -214,8 +214,10 @@ def test_warmup_runs_on_the_first_frame_before_the_clock_starts():
 
     def warmup(rgb):
         seen.append(int(rgb[0, 0, 0]))
-        time.sleep(0.3)                          # as long as 15 frames at 50 fps
+        time.sleep(0.5)                          # as long as 5 frames at 10 fps
 
-    live = LiveSource(FakeSource(20, fps=50.0), pace="realtime", warmup=warmup)
+    # 100 ms a frame: a loaded machine's scheduling (tens of ms) drops none; a clock started before the warm-up
+    # would have the first 5 frames due at once, and the reader keeps only the newest.
+    live = LiveSource(FakeSource(20, fps=10.0), pace="realtime", warmup=warmup)
     got = [f.index for f in live]
     assert seen == [0] and got == list(range(20)) and live.dropped == 0
