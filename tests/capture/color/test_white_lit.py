@@ -3,7 +3,7 @@
 import cv2
 import numpy as np
 
-from facepuppet.capture.color.white_lit import WHITE_LIT_SKIN, skin_light
+from facepuppet.capture.color.white_lit import LIGHT_SPREAD, WHITE_LIT_SKIN, skin_light
 
 
 def _chroma(rgb):
@@ -24,8 +24,16 @@ def test_a_skin_patch_in_a_coloured_light_gets_an_average_skins_colour_back():
         assert abs(total - _chroma(patch)[1]) < 4.0, (gains, total)       # the brightness kept, to rounding
 
 
-def test_a_patch_without_a_channel_or_without_pixels_has_no_light():
+def test_a_patch_no_light_turns_skin_has_none():
     blue = np.zeros((10, 10, 3), np.uint8)
     blue[..., 2] = 200
-    assert skin_light(blue) is None
-    assert skin_light(np.zeros((0, 5, 3), np.uint8)) is None
+    assert skin_light(blue) is None                                     # a channel at 0
+    assert skin_light(np.zeros((0, 5, 3), np.uint8)) is None            # no pixels
+    # A deep blue (R 20, G 60, B 200): gains 8.5, 2.2 and 0.6, over LIGHT_SPREAD apart.
+    assert skin_light(np.broadcast_to(np.uint8([20, 60, 200]), (8, 8, 3))) is None
+    # A patch just inside it (R 60, B 159: its R and B gains 3.96 apart) and one just outside (B 164: 4.08).
+    for b, inside in ((159, True), (164, False)):
+        M = skin_light(np.broadcast_to(np.uint8([60, 110, b]), (8, 8, 3)))
+        assert (M is not None) == inside, b
+        if inside:
+            assert np.diag(M[:, :3]).max() / np.diag(M[:, :3]).min() <= LIGHT_SPREAD

@@ -22,7 +22,7 @@ import numpy as np
 
 from facepuppet._util.jit import INNER, KERNEL
 
-__all__ = ["WHITE_LIT_SKIN", "TINTED", "side_colours", "skin_light", "white_lit"]
+__all__ = ["WHITE_LIT_SKIN", "TINTED", "LIGHT_SPREAD", "side_colours", "skin_light", "white_lit"]
 
 #: The chromaticity (shares of R, G and B) of an average skin under a white light.
 WHITE_LIT_SKIN = np.array([0.41, 0.315, 0.275])
@@ -30,6 +30,9 @@ WHITE_LIT_SKIN = np.array([0.41, 0.315, 0.275])
 #: taken to be in a coloured light: the shared clips' cheeks 0.005-0.025 (performer_a's camera 0.15), a warm
 #: lamp's 0.15, a cool window's 0.09.
 TINTED = 0.06
+#: Most a light's channel gains differ (largest over smallest) for :func:`skin_light`: a tungsten lamp before a
+#: camera balanced for daylight needs 2, a cool window's light 1.6; a patch that needs more is no skin.
+LIGHT_SPREAD = 4.0
 
 
 @nb.njit(**KERNEL)
@@ -93,11 +96,14 @@ def white_lit(crop: np.ndarray, cheeks: np.ndarray, middle: float) -> tuple[np.n
 def skin_light(patch: np.ndarray) -> np.ndarray | None:
     """The colour transform (3, 4) for ``cv2.transform`` that gives the median colour of ``patch`` (H, W, 3) uint8
     the chromaticity :data:`WHITE_LIT_SKIN` with its R + G + B kept (channel gains, no offset): the light a patch
-    of skin is seen in, undone (von Kries); None for an empty patch or one with a channel whose median is 0."""
+    of skin is seen in, undone (von Kries); None for an empty patch, one with a channel whose median is 0, or one
+    no light turns skin would show (gains more than :data:`LIGHT_SPREAD` apart)."""
     if patch.size == 0:
         return None
     med = np.median(patch.reshape(-1, 3), axis=0).astype(float)
     if med.min() <= 0.0:
         return None
     gains = WHITE_LIT_SKIN * med.sum() / med
+    if gains.max() > LIGHT_SPREAD * gains.min():
+        return None
     return np.column_stack([np.diag(gains), np.zeros(3)])
