@@ -1,4 +1,5 @@
-"""The colours a face would have in a white light: a patch of skin's light undone (``white_lit.skin_light``)."""
+"""The colours a face would have in a white light: a patch of skin's light undone (``white_lit.skin_light``), and
+the crops of a window tried in that light, whose cheeks' skin is doubted."""
 
 import cv2
 import numpy as np
@@ -37,3 +38,19 @@ def test_a_patch_no_light_turns_skin_has_none():
         assert (M is not None) == inside, b
         if inside:
             assert np.diag(M[:, :3]).max() / np.diag(M[:, :3]).min() <= LIGHT_SPREAD
+
+
+def test_a_crop_whose_skin_is_doubted_needs_a_faces_likeness():
+    """A skin-coloured frame (a little noise on it): its crops' cheeks are skin, so a search's crop of it is measured
+    whatever its likeness to a face; with the skin doubted (a window tried in the light made to give it skin's
+    colour) a crop without a face's likeness is none."""
+    from facepuppet.capture.color.face import FaceFrame
+    from facepuppet.capture.color.tracker import ColorTracker
+
+    noise = np.random.default_rng(4).normal(0.0, 6.0, (240, 320, 3))
+    rgb = np.clip(np.float64([200, 150, 130]) + noise, 0, 255).astype(np.uint8)
+    tracker = ColorTracker()
+    frame = FaceFrame.from_eyes(np.array([130.0, 100.0]), np.array([190.0, 100.0]))
+    assert tracker.measure(rgb, frame, follow=False, gain=1.0) is not None
+    tracker._place.skin_doubted = True
+    assert tracker.measure(rgb, frame, follow=False, gain=1.0) is None

@@ -247,11 +247,12 @@ class Acquirer:
         # tried in the light its skin shows most in. One whose middle looks like skin in neither (a face and a wall
         # of its colour in one strongly coloured light: as filmed the face lies outside the skin model, evened out
         # over the frame it turns grey with the wall) is tried in both and in the light that gives its middle an
-        # average skin's colour (:func:`~.white_lit.skin_light`), and its candidates need the likeness of a crop
-        # without skin (``acquire.min_skinless_score``) in all three. Where no skin model finds any skin (a
-        # monochrome or infrared camera, black-and-white footage), every window is taken in the evened-out light
-        # (a grey frame's levels stretched), and its candidates need that likeness like any other. Not when a
-        # landmark model is given explicitly (it places the faces the skin model misses).
+        # average skin's colour (:func:`~.white_lit.skin_light`), and its candidates are crops without skin in all
+        # three (the made light gives their cheeks skin's colour by construction): they need the likeness of a crop
+        # without skin (``acquire.min_skinless_score``) at each step of the eye search. Where no skin model finds
+        # any skin (a monochrome or infrared camera, black-and-white footage), every window is taken in the
+        # evened-out light (a grey frame's levels stretched), and its candidates need that likeness like any
+        # other. Not when a landmark model is given explicitly (it places the faces the skin model misses).
         skinless = not hypotheses
         use = cfg.acquire.cascade and cfg.landmarks.model is None
         if use and roi is None:
@@ -283,8 +284,11 @@ class Acquirer:
                                             for m, f in seen):
                 continue
             seen.append((M, frame))
-            place.light = M
-            got = self.refine(rgb, candidate_frames(frame), last, windows)
+            place.light, place.skin_doubted = M, unlit
+            try:
+                got = self.refine(rgb, candidate_frames(frame), last, windows)
+            finally:
+                place.skin_doubted = False
             if got is None or (unlit and got.score < cfg.acquire.min_skinless_score):
                 continue
             if best is None or value(got) > value(best):

@@ -70,6 +70,9 @@ class Placement:
         Colour transform evening out the light (set at acquisition), or None.
     skinless_ok : bool
         Accept crops whose cheeks do not look like skin (while settling a frame the landmark backend placed).
+    skin_doubted : bool
+        Take the crops' cheeks for no skin, whatever they look like (while trying a cascade window whose middle looked
+        like skin in no light: in the light made to give it a skin's colour, its cheeks' skin is no evidence).
     """
 
     anchors_px: np.ndarray
@@ -80,6 +83,7 @@ class Placement:
     scale: float = 1.0
     light: np.ndarray | None = None
     skinless_ok: bool = False
+    skin_doubted: bool = False
 
     @property
     def light_gain(self) -> float:

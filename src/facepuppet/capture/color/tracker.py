@@ -349,7 +349,7 @@ class ColorTracker:
         crop = evened_sides(crop, self._cheek_boxes)                            # light from one side: evened
         crop = without_glare(crop, self._cheek_boxes, self._eye_boxes, px)      # a lens's reflection: unknown
         crop = self._rims(crop, self._eye_boxes, px, follow)                   # glasses' rims: filled in
-        skin = self._follow.skin = self._skin_ok(crop)
+        skin = self._follow.skin = self._skin_ok(crop) and not place.skin_doubted
         C = self.intensity(crop, followed=follow)
         # The eyes' correction of the followed frame (a similarity in crop pixels, as a, b, tx, ty), smoothed
         # over frames: the alignment on the whole face is steady, the eye search noisier but unbiased. With the
