@@ -52,6 +52,7 @@ from facepuppet.capture.color.measure import Measurement, Placement
 from facepuppet.capture.color.outliner import Outliner
 from facepuppet.capture.color.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
 from facepuppet.capture.color.refind import LostFace
+from facepuppet.capture.color.resample import FaceCrops, noise_ratio
 from facepuppet.capture.color.rims import Rims
 from facepuppet.capture.color.rules import BOX_NAMES, move_boxes
 from facepuppet.capture.color.shape_models import FAMILIES
@@ -152,6 +153,7 @@ class ColorTracker:
                                 calibrated=config.landmarks.anchor_calibration <= 0)
         self._follow = FollowState(check_in=config.follow.check_every)
         self._rims = Rims()
+        self._crops = FaceCrops(self._size, self._cheek_boxes)
         #: Fresh searches for the face (acquisitions) since the tracker was made or reset.
         self.searches = 0
         self._follower = Follower(self._size, px, config.follow, both_axes=self._eye_opening)
@@ -266,6 +268,7 @@ class ColorTracker:
         if part == "snakes":
             self._outliner.warmup_snakes(curves, (w, h))
             return
+        noise_ratio(crop, np.eye(2, 3), self._cheek_boxes)
         C = self.intensity(crop)
         self.eye_centres(C)
         self._template.score(C, np.eye(2, 3))
@@ -342,7 +345,7 @@ class ColorTracker:
             units = (SCALE_STEP[0] * frame.unit, SCALE_STEP[1] * frame.unit)
             frame = self._follower.follow(rgb, A, units) or self._follower.aligned()
             A = frame.crop_matrix(px)
-        crop = cv2.warpAffine(rgb, A, self._size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        crop = self._crops(rgb, A, follow)                                      # large and noisy: by area
         if place.light is not None:
             crop = cv2.transform(crop, place.light)
         crop = evened_colours(crop, self._cheek_boxes)                          # two lights' colours: evened
