@@ -103,34 +103,44 @@ def background(kind, shape, skin, rng):
     return np.clip(img, 0, 255).astype(np.float32)
 
 
-def performer_clip(assets, face_landmarker, name):
-    """60 frames (every 2nd of the first 120) of ``name``, MediaPipe's curves and the face's skin colour."""
-    from facepuppet.capture.tracking import make_tracker
-
-    cap = cv2.VideoCapture(str(assets / "video" / f"{name}.mp4"))
-    frames = []
-    for k in range(120):
+def clip_frames(path, first=0, last=None, step=1):
+    """RGB frames ``first``, ``first + step``, ... (before ``last``, or to the end) of the video ``path``."""
+    cap = cv2.VideoCapture(str(path))
+    frames, k = [], 0
+    while last is None or k < last:
         ok, bgr = cap.read()
         if not ok:
             break
-        if k % 2 == 0:
+        if k >= first and (k - first) % step == 0:
             frames.append(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
+        k += 1
     cap.release()
+    return frames
+
+
+def mediapipe_reference(frames, face_landmarker):
+    """MediaPipe's features (``FrameFeatures``, image mode: each frame on its own) of each frame; every frame must
+    show the face."""
+    from facepuppet.capture.tracking import make_tracker
+
     mp = make_tracker("mediapipe", model_path=face_landmarker, running_mode="image")
     try:
         ref = [mp.track(f, 66 * i) for i, f in enumerate(frames)]
     finally:
         mp.close()
     assert all(r.valid for r in ref)
-    ref = np.stack([r.curves for r in ref])
+    return ref
+
+
+def performer_clip(assets, face_landmarker, name):
+    """60 frames (every 2nd of the first 120) of ``name``, MediaPipe's curves and the face's skin colour."""
+    frames = clip_frames(assets / "video" / f"{name}.mp4", 0, 120, 2)
+    ref = np.stack([r.curves for r in mediapipe_reference(frames, face_landmarker)])
     # The cheeks' colour: below the eyes, beside the nose.
     c = ref[0]
     cheek = np.round(0.5 * (c[IDX["eye_right_lower"], 1] + c[IDX["lip_upper_outer"], 0])).astype(int)
     skin = frames[0][cheek[1] - 4:cheek[1] + 4, cheek[0] - 4:cheek[0] + 4].reshape(-1, 3).mean(axis=0)
     return frames, ref, skin
-
-
-
 
 
 def followed(frames, ref, light, who, settle=0):

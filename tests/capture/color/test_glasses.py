@@ -8,6 +8,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from composites import clip_frames, mediapipe_reference
 
 from facepuppet.capture.color.tracker import ColorTracker
 from facepuppet.capture.curves import CURVE_NAMES, bezier_points
@@ -44,32 +45,12 @@ def wear_glasses(rgb, curves, kind):
 def clips(assets, face_landmarker):
     """Per clip: :data:`FRAMES` frames (every 2nd of its first 2 * FRAMES), MediaPipe's curves on them and the
     colour tracker's (NME, share tracked) on the frames as filmed."""
-    from facepuppet.capture.tracking import make_tracker
-
     out = {}
-    mp = make_tracker("mediapipe", model_path=face_landmarker, running_mode="image")
-    try:
-        for clip in CLIPS:
-            frames = _frames(assets / "video" / f"{clip}.mp4", 2 * FRAMES)[::2]
-            ref = [mp.track(f, 66 * i) for i, f in enumerate(frames)]
-            assert all(r.valid for r in ref)
-            ref = np.stack([r.curves for r in ref])
-            out[clip] = frames, ref, _track_nme(frames, ref)
-    finally:
-        mp.close()
+    for clip in CLIPS:
+        frames = clip_frames(assets / "video" / f"{clip}.mp4", 0, 2 * FRAMES, 2)
+        ref = np.stack([r.curves for r in mediapipe_reference(frames, face_landmarker)])
+        out[clip] = frames, ref, _track_nme(frames, ref)
     return out
-
-
-def _frames(path, count):
-    """The first ``count`` frames of the video ``path``, RGB."""
-    cap = cv2.VideoCapture(str(path))
-    frames = []
-    for _ in range(count):
-        ok, bgr = cap.read()
-        assert ok, (path, len(frames))
-        frames.append(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
-    cap.release()
-    return frames
 
 
 def _track_nme(frames, ref, kind=None):
@@ -125,7 +106,7 @@ def test_a_wide_open_mouth_behind_thick_rims(assets, face_landmarker, tmp_path):
     frames, ref = _filmed(assets / "video" / "performer_c.mp4", 172, face_landmarker)
     tracker = ColorTracker()
     off = []
-    for i, (rgb, r) in enumerate(zip(_read(_glasses_copy(frames, ref, tmp_path / "glasses.mp4")), ref,
+    for i, (rgb, r) in enumerate(zip(clip_frames(_glasses_copy(frames, ref, tmp_path / "glasses.mp4")), ref,
                                      strict=True)):
         f = tracker.track(rgb, 33 * i)
         if not f.valid:
@@ -145,24 +126,13 @@ def _filmed(path, count, model):
     """The first ``count`` frames of the video ``path`` (RGB) and MediaPipe's results on them (video mode)."""
     from facepuppet.capture.tracking import make_tracker
 
-    frames = _frames(path, count)
+    frames = clip_frames(path, 0, count)
+    assert len(frames) == count, (path, len(frames))
     mp = make_tracker("mediapipe", model_path=model, running_mode="video")
     try:
         return frames, [mp.track(f, 33 * i) for i, f in enumerate(frames)]
     finally:
         mp.close()
-
-
-def _read(path):
-    """The frames of the video ``path``, RGB."""
-    cap = cv2.VideoCapture(str(path))
-    frames = []
-    ok, bgr = cap.read()
-    while ok:
-        frames.append(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
-        ok, bgr = cap.read()
-    cap.release()
-    return frames
 
 
 def _coded(frames, path):
@@ -194,10 +164,10 @@ def test_a_face_behind_thick_rims_in_a_dim_room_is_found_at_its_size(assets, fac
     # bar: the face was taken 1.71-1.77 times its size. The cascade's window holds the face at its size, and a
     # candidate it holds needs no skin (color/acquire.py, ``Acquirer.refine``).
     frames, ref = _filmed(assets / "video" / "performer_b_exaggerated.mp4", 30, face_landmarker)
-    dim = [(rgb * 0.35).astype(np.uint8) for rgb in _read(_glasses_copy(frames, ref, tmp_path / "glasses.mp4"))]
+    dim = [(rgb * 0.35).astype(np.uint8) for rgb in clip_frames(_glasses_copy(frames, ref, tmp_path / "glasses.mp4"))]
     tracker = ColorTracker()
     sizes = []
-    for i, (rgb, r) in enumerate(zip(_read(_coded(dim, tmp_path / "dim.mp4")), ref, strict=True)):
+    for i, (rgb, r) in enumerate(zip(clip_frames(_coded(dim, tmp_path / "dim.mp4")), ref, strict=True)):
         f = tracker.track(rgb, 33 * i)
         sizes.append(_eye_distance(f.curves) / _eye_distance(r.curves) if f.valid else np.nan)
     # Measured: every frame tracked, the eye distance 1.14-1.18 times MediaPipe's (the window's face is a little

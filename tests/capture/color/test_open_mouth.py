@@ -8,6 +8,7 @@ of upper teeth. The painting leaves the lips as filmed, so MediaPipe's curves of
 import cv2
 import numpy as np
 import pytest
+from composites import clip_frames, mediapipe_reference
 
 from facepuppet.capture.color.tracker import ColorTracker
 from facepuppet.capture.curves import CURVE_NAMES, bezier_points
@@ -17,21 +18,6 @@ LIPS = ("lip_upper_outer", "lip_lower_outer", "lip_upper_inner", "lip_lower_inne
 #: Frames read per clip (first, last, step), and the jawOpen score above which a frame counts as open.
 SPANS = {"performer_a": (240, 354, 2), "performer_c": (0, 150, 2)}
 OPEN_SCORE = 0.4
-
-
-def _frames(path, first, last, step):
-    cap = cv2.VideoCapture(str(path))
-    out = []
-    k = 0
-    while k < last:
-        ok, bgr = cap.read()
-        if not ok:
-            break
-        if k >= first and (k - first) % step == 0:
-            out.append(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
-        k += 1
-    cap.release()
-    return out
 
 
 def lip_nme(ours, ref):
@@ -56,15 +42,9 @@ def _mid_y(c):
 def open_clip(request, assets, face_landmarker):
     """One clip's frames (a span of it, every 2nd frame), MediaPipe's curves and jawOpen score of each."""
     from facepuppet.capture.landmarks import BLENDSHAPE_NAMES
-    from facepuppet.capture.tracking import make_tracker
 
-    frames = _frames(assets / "video" / f"{request.param}.mp4", *SPANS[request.param])
-    mp = make_tracker("mediapipe", model_path=face_landmarker, running_mode="image")
-    try:
-        ref = [mp.track(f, 66 * i) for i, f in enumerate(frames)]
-    finally:
-        mp.close()
-    assert all(r.valid for r in ref)
+    frames = clip_frames(assets / "video" / f"{request.param}.mp4", *SPANS[request.param])
+    ref = mediapipe_reference(frames, face_landmarker)
     jaw = np.array([r.extras["blendshapes"][BLENDSHAPE_NAMES.index("jawOpen")] for r in ref])
     return request.param, frames, np.stack([r.curves for r in ref]), jaw
 
@@ -176,14 +156,8 @@ def test_inner_lower_lip_under_a_tongue(assets, face_landmarker):
     """performer_b's mouth open with the tongue showing (frames 300-500, every 2nd; most of them open): the
     tongue, lip-coloured, fills the opening under a thin dark band, and the inner lower lip lies on the lower
     lip's inner edge (MediaPipe's), not on the tongue's top."""
-    from facepuppet.capture.tracking import make_tracker
-
-    frames = _frames(assets / "video" / "performer_b_exaggerated.mp4", 300, 500, 2)
-    mp = make_tracker("mediapipe", model_path=face_landmarker, running_mode="image")
-    try:
-        ref = [mp.track(f, 66 * i) for i, f in enumerate(frames)]
-    finally:
-        mp.close()
+    frames = clip_frames(assets / "video" / "performer_b_exaggerated.mp4", 300, 500, 2)
+    ref = mediapipe_reference(frames, face_landmarker)
     tracker = ColorTracker()
     got = [tracker.track(f, 66 * i) for i, f in enumerate(frames)]
     tracker.close()

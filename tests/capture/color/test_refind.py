@@ -4,6 +4,7 @@ it: the tracker never takes the smaller face for the one it lost."""
 
 import cv2
 import numpy as np
+from composites import clip_frames, eye_centres
 
 from facepuppet.capture.color.face import FaceFrame
 from facepuppet.capture.color.measure import Measurement
@@ -71,24 +72,6 @@ def test_a_lost_face_is_found_again_only_near_where_it_was_in_its_units():
     assert plausible(near, lost) and not plausible(far, lost)
 
 
-def _frames(path, n):
-    cap = cv2.VideoCapture(str(path))
-    out = []
-    for k in range(2 * n):
-        ok, bgr = cap.read()
-        if not ok:
-            break
-        if k % 2 == 0:
-            out.append(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
-    cap.release()
-    return out
-
-
-def _eyes(curves):
-    """(right, left) eye centres (2, 2) of a frame's curves."""
-    return np.stack([curves[_IDX[f"eye_{s}_upper"]][[0, 3]].mean(axis=0) for s in ("right", "left")])
-
-
 def _oval(eyes, shape, size=(0.8, 1.2, 1.75)):
     """(H, W) float32 feathered face oval ``size`` (centre below the eyes, half-axes; eye distances)."""
     right, left = eyes
@@ -106,7 +89,7 @@ def test_a_hidden_face_is_not_found_again_on_a_smaller_face_beside_it(assets):
     Where the face is, is known from the tracker on the same stage without the copy and the hand."""
     from facepuppet.capture.color.tracker import ColorTracker
 
-    frames = _frames(assets / "video" / "performer_a.mp4", 60)
+    frames = clip_frames(assets / "video" / "performer_a.mp4", 0, 120, 2)
     size, scale, corner, hidden = (640, 480), 0.3, np.array([250.0, 120.0]), range(20, 30)
     rng = np.random.default_rng(5)
     stage = np.clip(28.0 + rng.normal(0.0, 3.0, (size[1], size[0], 3)), 0, 255).astype(np.float32)
@@ -123,7 +106,7 @@ def test_a_hidden_face_is_not_found_again_on_a_smaller_face_beside_it(assets):
         box[y0:y1, x0:x1] = 1
         f = clean.track(np.clip(box[..., None] * face + (1 - box[..., None]) * stage, 0, 255).astype(np.uint8), 66 * i)
         assert f.valid, i
-        ref.append(_eyes(f.curves))
+        ref.append(eye_centres(f.curves))
     right, left = ref[0]
     cheek = (0.5 * (right + left) + [0.0, 0.6 * np.linalg.norm(left - right)]).astype(int)
     tracker, shown, wrong = ColorTracker(), [], []
@@ -146,7 +129,7 @@ def test_a_hidden_face_is_not_found_again_on_a_smaller_face_beside_it(assets):
             img = hand[..., None] * skin + (1 - hand[..., None]) * img
         f = tracker.track(np.clip(img, 0, 255).astype(np.uint8), 66 * i)
         if f.valid:
-            err = np.linalg.norm(_eyes(f.curves) - eyes, axis=1).max() / d
+            err = np.linalg.norm(eye_centres(f.curves) - eyes, axis=1).max() / d
             (wrong if err > 0.35 else shown).append(i)
     # Measured: valid and on the face in every frame but those the hand hides (and the first after it).
     assert not wrong, wrong

@@ -3,6 +3,7 @@
 import cv2
 import numpy as np
 import pytest
+from composites import clip_frames, mediapipe_reference
 
 from facepuppet.capture.color.profile import default_profile, save_profile
 from facepuppet.capture.color.tracker import ColorTracker
@@ -10,21 +11,6 @@ from facepuppet.capture.curves import CURVE_NAMES, POINT_NAMES, bezier_points
 
 _IDX = {n: i for i, n in enumerate(CURVE_NAMES)}
 MEASURED = [n for n in CURVE_NAMES if not n.startswith("nostril")]
-
-
-def _frames(path, n, step=1):
-    cap = cv2.VideoCapture(str(path))
-    out = []
-    k = 0
-    while len(out) < n:
-        ok, bgr = cap.read()
-        if not ok:
-            break
-        if k % step == 0:
-            out.append(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
-        k += 1
-    cap.release()
-    return out
 
 
 def _nme(ours, ref):
@@ -41,16 +27,8 @@ def _nme(ours, ref):
 @pytest.fixture(scope="module")
 def clip(assets, face_landmarker):
     """40 frames (every 3rd of the first 120) of performer_a with MediaPipe's curves."""
-    from facepuppet.capture.tracking import make_tracker
-
-    frames = _frames(assets / "video" / "performer_a.mp4", 40, step=3)
-    mp = make_tracker("mediapipe", model_path=face_landmarker, running_mode="image")
-    try:
-        ref = [mp.track(f, 100 * i) for i, f in enumerate(frames)]
-    finally:
-        mp.close()
-    assert all(r.valid for r in ref)
-    return frames, np.stack([r.curves for r in ref])
+    frames = clip_frames(assets / "video" / "performer_a.mp4", 0, 120, 3)
+    return frames, np.stack([r.curves for r in mediapipe_reference(frames, face_landmarker)])
 
 
 def test_a_face_free_frame_is_a_marked_frame():
@@ -243,7 +221,7 @@ def test_a_small_face_found_again_keeps_its_size(assets, tmp_path):
     """performer_c shrunk to 2/5 on a grey frame and written as MPEG-4 (a face about 80 pixels wide): a blink
     makes the likeness check drop it near frame 90; finding it again must not take a frame twice its size that
     also looks somewhat like a face (the size cost, :class:`~facepuppet.capture.color.config.AcquireConfig`)."""
-    frames = _frames(assets / "video" / "performer_c.mp4", 130)
+    frames = clip_frames(assets / "video" / "performer_c.mp4", 0, 130)
     h, w = frames[0].shape[:2]
     path = tmp_path / "small.mp4"
     out = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), 30.0, (w, h))
@@ -255,7 +233,7 @@ def test_a_small_face_found_again_keeps_its_size(assets, tmp_path):
     out.release()
     tracker = ColorTracker()
     spans = []
-    for i, f in enumerate(_frames(path, len(frames))):
+    for i, f in enumerate(clip_frames(path)):
         g = tracker.track(f, round(1000 * i / 30))
         assert g.valid, i
         spans.append(np.linalg.norm(g.curves[_IDX["eye_left_upper"], 3] - g.curves[_IDX["eye_right_upper"], 3]))
