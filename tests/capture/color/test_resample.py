@@ -7,6 +7,7 @@ import pytest
 from composites import followed, performer_clip
 
 from facepuppet.capture.color.resample import (
+    AHEAD_MARGIN,
     NOISE_EVERY,
     NOISE_OFF,
     NOISE_ON,
@@ -14,6 +15,7 @@ from facepuppet.capture.color.resample import (
     area_crop,
     block_size,
     noise_ratio,
+    read_ahead,
 )
 
 SIZE = (125, 134)
@@ -113,6 +115,24 @@ def test_face_crops_keeps_its_judgement_within_the_band_and_between_judgements_o
     assert not crops.noisy
     crops(_frame(120.0, 25.0), A, False)    # a search's crops: each judged
     assert crops.noisy
+
+
+def test_read_ahead_reads_one_byte_of_each_64_of_the_rows_under_a_crop():
+    rng = np.random.default_rng(2)
+    rgb = rng.integers(0, 256, (300, 400, 3), dtype=np.uint8)
+    flat = rgb.reshape(-1).astype(np.int64)
+
+    def expected(x0, x1, y0, y1):
+        return sum(int(flat[y * 1200 + 3 * x0:y * 1200 + 3 * x1:64].sum()) for y in range(y0, y1))
+
+    m = AHEAD_MARGIN
+    # Crop pixels to image pixels x 2 from (50, 30): a 60 x 50 crop covers x 50..170, y 30..130.
+    inside = np.array([[2.0, 0.0, 50.0], [0.0, 2.0, 30.0]])
+    assert read_ahead(rgb, inside, 60, 50) == expected(50 - m, 170 + m, 30 - m, 130 + m)
+    # Past the frame's corner: only the frame's part is read.
+    corner = np.array([[2.0, 0.0, 350.0], [0.0, 2.0, -40.0]])
+    assert read_ahead(rgb, corner, 60, 50) == expected(350 - m, 400, 0, 60 + m)
+    assert read_ahead(rgb, np.array([[1.0, 0.0, 500.0], [0.0, 1.0, 0.0]]), 60, 50) == 0
 
 
 @pytest.mark.parametrize("who", ["performer_c", "performer_b_exaggerated"])

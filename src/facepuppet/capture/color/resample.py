@@ -22,8 +22,8 @@ import numpy as np
 
 from facepuppet._util.jit import KERNEL
 
-__all__ = ["NOISE_ON", "NOISE_OFF", "NOISE_STRIDE", "NOISE_EVERY", "FaceCrops", "area_crop", "block_size",
-           "noise_ratio"]
+__all__ = ["NOISE_ON", "NOISE_OFF", "NOISE_STRIDE", "NOISE_EVERY", "AHEAD_MARGIN", "FaceCrops", "area_crop",
+           "block_size", "noise_ratio", "read_ahead"]
 
 #: Noise ratio (:func:`noise_ratio`) above which a frame is taken for noisy, and below which for clean again
 #: once noisy (the band keeps a frame near the bar from switching between the two crops). Measured on the
@@ -33,6 +33,7 @@ NOISE_ON = 0.1
 NOISE_OFF = 0.08
 NOISE_STRIDE = 3            # image pixels   between the pixels the noise is estimated at, each way
 NOISE_EVERY = 8             # crops          of a followed face between two judgements of the noise
+AHEAD_MARGIN = 8            # image pixels   :func:`read_ahead` reads beyond the crop's region each way
 
 
 def block_size(A: np.ndarray) -> int:
@@ -84,6 +85,34 @@ def noise_ratio(rgb: np.ndarray, Ainv: np.ndarray, boxes: np.ndarray) -> float:
         return 0.0
     sigma = np.sqrt(np.pi / 2.0) / 6.0 * total / n
     return sigma / max(level / n, 1.0)
+
+
+@nb.njit(**KERNEL)
+def read_ahead(rgb: np.ndarray, Ainv: np.ndarray, w: int, h: int) -> int:
+    """Read the image region under a crop of ``w`` x ``h`` pixels (``Ainv`` (2, 3): crop pixels to image pixels)
+    row by row, one byte of each 64, grown by :data:`AHEAD_MARGIN` pixels each way; the sum of the bytes read.
+
+    A warp reads a frame a few pixels a row in an irregular order, so that each cache line of a frame held in
+    memory (a clip decoded ahead, a camera's frame written by another core) comes from memory on its own; read in
+    row order first, the lines stream in together and the warps that follow find them in the cache. ``rgb``
+    (H, W, 3) uint8, C-contiguous.
+    """
+    H, W = rgb.shape[0], rgb.shape[1]
+    x_lo, y_lo, x_hi, y_hi = np.inf, np.inf, -np.inf, -np.inf
+    for cx in (0.0, float(w)):
+        for cy in (0.0, float(h)):
+            x = Ainv[0, 0] * cx + Ainv[0, 1] * cy + Ainv[0, 2]
+            y = Ainv[1, 0] * cx + Ainv[1, 1] * cy + Ainv[1, 2]
+            x_lo, x_hi, y_lo, y_hi = min(x_lo, x), max(x_hi, x), min(y_lo, y), max(y_hi, y)
+    x0, x1 = max(int(x_lo) - AHEAD_MARGIN, 0), min(int(x_hi) + AHEAD_MARGIN, W)
+    y0, y1 = max(int(y_lo) - AHEAD_MARGIN, 0), min(int(y_hi) + AHEAD_MARGIN, H)
+    flat = rgb.reshape(-1)
+    total = 0
+    for y in range(y0, y1):
+        row = y * W * 3
+        for i in range(row + 3 * x0, row + 3 * x1, 64):
+            total += flat[i]
+    return total
 
 
 def area_crop(rgb: np.ndarray, A: np.ndarray, size: tuple[int, int], n: int) -> np.ndarray:

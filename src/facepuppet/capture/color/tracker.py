@@ -52,7 +52,7 @@ from facepuppet.capture.color.measure import Measurement, Placement
 from facepuppet.capture.color.outliner import Outliner
 from facepuppet.capture.color.profile import GENERIC_LAYOUT, Profile, default_profile, load_profile
 from facepuppet.capture.color.refind import LostFace
-from facepuppet.capture.color.resample import FaceCrops, noise_ratio
+from facepuppet.capture.color.resample import FaceCrops, noise_ratio, read_ahead
 from facepuppet.capture.color.rims import Rims
 from facepuppet.capture.color.rules import BOX_NAMES, move_boxes
 from facepuppet.capture.color.shape_models import FAMILIES
@@ -269,6 +269,7 @@ class ColorTracker:
             self._outliner.warmup_snakes(curves, (w, h))
             return
         noise_ratio(crop, np.eye(2, 3), self._cheek_boxes)
+        read_ahead(crop, np.eye(2, 3), w, h)
         C = self.intensity(crop)
         self.eye_centres(C)
         self._template.score(C, np.eye(2, 3))
@@ -339,6 +340,8 @@ class ColorTracker:
         px = self.config.measure.px
         place = self._place
         A = frame.crop_matrix(px)
+        if follow and rgb.flags.c_contiguous:
+            read_ahead(rgb, cv2.invertAffineTransform(A), *self._size)     # the warps below find it in the cache
         if follow and self._follower.ref is not None:
             # The frame the alignment puts the face in, or where it last put it: the frame given holds the
             # last eye correction, which is applied below.
