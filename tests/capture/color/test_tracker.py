@@ -111,6 +111,19 @@ def test_profile_from_a_file(tmp_path, clip):
     assert ColorTracker(path).track(frames[0], 0).valid
 
 
+def test_a_view_of_a_larger_frame_is_tracked_as_its_copy(clip):
+    """Frames handed over as views into larger arrays (not contiguous: a camera's padded rows, a region cut out)
+    give the features their contiguous copies give."""
+    frames, _ = clip
+    padded = [np.pad(f, ((8, 8), (16, 16), (0, 0))) for f in frames[:12]]
+    a, b = ColorTracker(), ColorTracker()
+    for i, (f, p) in enumerate(zip(frames[:12], padded, strict=True)):
+        view = p[8:-8, 16:-16]
+        assert not view.flags.c_contiguous
+        got, want = b.track(view, 100 * i), a.track(f, 100 * i)
+        assert got.valid == want.valid and np.array_equal(got.curves, want.curves, equal_nan=True), i
+
+
 def test_bad_input_is_named():
     with pytest.raises(ValueError, match="rgb"):
         ColorTracker().track(np.zeros((10, 10, 3), np.float32), 0)

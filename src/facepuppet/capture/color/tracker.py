@@ -208,7 +208,7 @@ class ColorTracker:
     # -- per frame -------------------------------------------------------------------------------------
     def track(self, rgb: np.ndarray, timestamp_ms: int) -> FrameFeatures:
         """Track one RGB frame (H, W, 3) uint8; see :class:`~facepuppet.capture.features.Tracker`."""
-        rgb = np.asarray(rgb)
+        rgb = np.ascontiguousarray(rgb)        # the compiled kernels' layout (a view of a larger frame is copied)
         if rgb.ndim == 2:
             rgb = cv2.cvtColor(rgb, cv2.COLOR_GRAY2RGB)
         if rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.dtype != np.uint8:
@@ -341,7 +341,7 @@ class ColorTracker:
         place = self._place
         A = frame.crop_matrix(px)
         if follow and rgb.flags.c_contiguous:
-            read_ahead(rgb, cv2.invertAffineTransform(A), *self._size)     # the warps below find it in the cache
+            read_ahead(rgb, cv2.invertAffineTransform(A), *self._size)     # the warps below find it in cache
         if follow and self._follower.ref is not None:
             # The frame the alignment puts the face in, or where it last put it: the frame given holds the
             # last eye correction, which is applied below.
