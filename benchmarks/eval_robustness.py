@@ -95,9 +95,11 @@ VARIANTS = ("dim", "warm", "noisy", "small", "face80", "cool", "rolled", "mirror
 BACKGROUNDS = ("wood", "beige", "skin_object", "poster", "stage_hand")
 DRAWN = tuple(drawn.DRAWN)
 #: Chains of two or three conditions (``--compounds``): a webcam's noisy, JPEG-coded stream in a dark, warm or cool
-#: room, a wall of the face's colour in the same warm light, glasses on a small or deep-skinned face, and so on.
+#: room, a phone's HD stream in a dark room, a wall of the face's colour in the same warm light, glasses on a small
+#: or deep-skinned face, and so on.
 COMPOUNDS = ("dim+noisy", "warm+noisy+lowres", "small+noisy", "wood+warm", "glasses+lowres", "beard+dim",
-             "cool+face80", "sidelit+noisy", "grey+small", "backlit+lowres", "glasses+deep", "beige+dim+noisy")
+             "cool+face80", "sidelit+noisy", "grey+small", "backlit+lowres", "glasses+deep", "beige+dim+noisy",
+             "hd+dim+noisy")
 #: The face cut out: an oval centred this far below the eyes, with these half-axes (eye-centre distances).
 FACE_OVAL = (0.8, 1.2, 1.75)
 STAGE_SCALE = 0.42          # the stage copy's frame scale (a face about 90-115 px wide)

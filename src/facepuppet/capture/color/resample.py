@@ -5,8 +5,8 @@ A crop of ``px`` pixels per face unit samples a face of eye distance ``unit`` im
 crop pixels per image pixel; a bilinear warp reads only the 2 x 2 image pixels nearest each crop pixel, so for
 k of 1/2 and less it keeps most of each image pixel's sensor noise (a face twice the crop's size in a dim room:
 the eye search finds eyes in the noise). Averaging the face's region over blocks of n x n image pixels first,
-n = floor(1 / k) (OpenCV's ``INTER_AREA`` at a whole factor), takes the noise's standard deviation down n times
-and leaves the warp a sampling of 1 / n to 1 / (n k) image pixels' blocks. It softens thin edges (lids, lip
+n = floor(1 / k) (OpenCV's ``INTER_AREA`` at a whole factor), takes the noise's standard deviation down n times;
+the warp then samples the blocks at n k (1/2 to 1) crop pixels a block. It softens thin edges (lids, lip
 borders) a little on clean footage, so it is done only where the noise is a sizeable share of the skin's level
 (:class:`FaceCrops`).
 
