@@ -20,7 +20,7 @@ import cv2
 import numba as nb
 import numpy as np
 
-from facepuppet._util.jit import KERNEL
+from facepuppet._util.jit import INNER, KERNEL
 
 __all__ = ["NOISE_ON", "NOISE_OFF", "NOISE_STRIDE", "NOISE_EVERY", "AHEAD_MARGIN", "FaceCrops", "area_crop",
            "block_size", "noise_ratio", "read_ahead"]
@@ -44,6 +44,19 @@ def block_size(A: np.ndarray) -> int:
     return max(int(1.0 / max(k, 1e-9)), 1)
 
 
+@nb.njit(**INNER)
+def _bounds(Ainv: np.ndarray, x0: float, y0: float, x1: float, y1: float) -> tuple[float, float, float, float]:
+    """(x_lo, y_lo, x_hi, y_hi): the image box bounding the crop rectangle (x0, y0, x1, y1) mapped by ``Ainv``
+    (2, 3: crop pixels to image pixels)."""
+    x_lo, y_lo, x_hi, y_hi = np.inf, np.inf, -np.inf, -np.inf
+    for cx in (x0, x1):
+        for cy in (y0, y1):
+            x = Ainv[0, 0] * cx + Ainv[0, 1] * cy + Ainv[0, 2]
+            y = Ainv[1, 0] * cx + Ainv[1, 1] * cy + Ainv[1, 2]
+            x_lo, x_hi, y_lo, y_hi = min(x_lo, x), max(x_hi, x), min(y_lo, y), max(y_hi, y)
+    return x_lo, y_lo, x_hi, y_hi
+
+
 @nb.njit(**KERNEL)
 def noise_ratio(rgb: np.ndarray, Ainv: np.ndarray, boxes: np.ndarray) -> float:
     """The sensor noise's standard deviation over the mean level, of the HSV value V = max(R, G, B) in the image
@@ -57,12 +70,8 @@ def noise_ratio(rgb: np.ndarray, Ainv: np.ndarray, boxes: np.ndarray) -> float:
     H, W = rgb.shape[0], rgb.shape[1]
     total, level, n = 0.0, 0.0, 0
     for b in range(boxes.shape[0]):
-        x_lo, y_lo, x_hi, y_hi = np.inf, np.inf, -np.inf, -np.inf
-        for cx in (boxes[b, 0], boxes[b, 2]):
-            for cy in (boxes[b, 1], boxes[b, 3]):
-                x = Ainv[0, 0] * cx + Ainv[0, 1] * cy + Ainv[0, 2]
-                y = Ainv[1, 0] * cx + Ainv[1, 1] * cy + Ainv[1, 2]
-                x_lo, x_hi, y_lo, y_hi = min(x_lo, x), max(x_hi, x), min(y_lo, y), max(y_hi, y)
+        x_lo, y_lo, x_hi, y_hi = _bounds(Ainv, float(boxes[b, 0]), float(boxes[b, 1]), float(boxes[b, 2]),
+                                         float(boxes[b, 3]))
         x0, x1 = max(int(np.floor(x_lo)), 1), min(int(np.ceil(x_hi)), W - 1)
         y0, y1 = max(int(np.floor(y_lo)), 1), min(int(np.ceil(y_hi)), H - 1)
         for y in range(y0, y1, NOISE_STRIDE):
@@ -98,12 +107,7 @@ def read_ahead(rgb: np.ndarray, Ainv: np.ndarray, w: int, h: int) -> int:
     (H, W, 3) uint8, C-contiguous.
     """
     H, W = rgb.shape[0], rgb.shape[1]
-    x_lo, y_lo, x_hi, y_hi = np.inf, np.inf, -np.inf, -np.inf
-    for cx in (0.0, float(w)):
-        for cy in (0.0, float(h)):
-            x = Ainv[0, 0] * cx + Ainv[0, 1] * cy + Ainv[0, 2]
-            y = Ainv[1, 0] * cx + Ainv[1, 1] * cy + Ainv[1, 2]
-            x_lo, x_hi, y_lo, y_hi = min(x_lo, x), max(x_hi, x), min(y_lo, y), max(y_hi, y)
+    x_lo, y_lo, x_hi, y_hi = _bounds(Ainv, 0.0, 0.0, float(w), float(h))
     x0, x1 = max(int(x_lo) - AHEAD_MARGIN, 0), min(int(x_hi) + AHEAD_MARGIN, W)
     y0, y1 = max(int(y_lo) - AHEAD_MARGIN, 0), min(int(y_hi) + AHEAD_MARGIN, H)
     flat = rgb.reshape(-1)
