@@ -8,6 +8,8 @@ from facepuppet.capture.color.nose_turn import (
     NOSE_DEPTH,
     TIP_DEPTH,
     TIP_MISSES,
+    TIP_REACH,
+    TIP_SEARCH,
     NoseTurn,
     face_to_image,
     tip_detail,
@@ -90,6 +92,25 @@ def test_yaw_is_read_against_the_running_neutral():
     assert abs(got[1]) < 0.01, got                    # moved sideways: no nod
     # a frame with no detail in the nose region keeps the last reading
     np.testing.assert_array_equal(turn(np.full((300, 400, 3), 128, np.uint8), M), got)
+
+
+def test_a_tip_turned_past_the_search_is_followed_sideways_to_the_reach():
+    """A nose facing the camera, then turning step by step to 0.46 face units aside (past TIP_SEARCH from its
+    first place, within TIP_REACH): each step is found from the last reading, so the yaw keeps growing as
+    asin(d / k) from the neutral; turned back it reads no turn. A nose lowered that far at once is sought only
+    TIP_SEARCH from its reference's place (the nod's range), and gives no reading."""
+    assert TIP_SEARCH < 0.46 < TIP_REACH
+    turn, M = NoseTurn(frames=301, every=1), _frame_map()
+    for _ in range(40):
+        turn(_nose(0.0), M)
+    for d in np.arange(0.04, 0.47, 0.04):
+        got = turn(_nose(d), M)
+    assert abs(got[0] - np.arcsin(0.44 / NOSE_DEPTH)) < 0.02, got
+    for d in np.arange(0.40, -0.01, -0.04):
+        got = turn(_nose(d), M)
+    assert np.abs(got).max() < 0.02, got
+    held = turn(_nose(0.0, down=0.45), M)
+    np.testing.assert_array_equal(held, got)
 
 
 def test_the_tip_is_found_where_it_was_moved():

@@ -5,22 +5,22 @@ trained profile reads the turn with its learnt model (:mod:`.head_turn`). Withou
 the nose's tip, the point of the face that stands farthest in front of the eyes and moves least with the
 expression (the lids, brows and lips move around it):
 
-- **The tip's shift.** Seen along the line of sight under weak perspective, a point ``z`` proud of the eye
-  centres moves ``z sin(yaw)`` sideways and ``z sin(pitch)`` up or down against them, while the eye distance
-  ``D`` shrinks only as ``cos(yaw)``; so in face units (the eye distance) the tip moves ``k sin(angle)`` from
-  its place in a frontal face, with ``k = z / D`` (:data:`NOSE_DEPTH` sideways, :data:`TIP_DEPTH` up and down).
-  The tip and nostrils (:data:`TIP_REGION`) are resampled upright in the face frame
-  (:data:`TIP_SAMPLES_PER_UNIT`; a face of many pixels to a sample is first halved by Gaussian pyramid levels)
-  and their detail (the grey blurred over the finer of :data:`TIP_SIGMA` less its blur over the wider: the
-  nostrils, the tip's highlight, the sides' edges, not the light's slope across the face) is found in each frame
-  by normalised cross-correlation with a running reference, within :data:`TIP_SEARCH` of its place in the first
-  frame measured. The place is then taken from the first frame's tip where that matches
-  (:data:`MIN_FIRST_MATCH`) within :data:`TIP_REFINE` of it, to a fraction of a sample by a parabola through the
-  best match and its neighbours along each axis, and only such a tip is blended into the running reference (at
-  :data:`TIP_LEARN`: the nose's look changes as the head turns and nods, and the nostrils show and hide; the
-  first tip anchors it). A match with the running reference under :data:`MIN_TIP_MATCH` (the tip hidden, the
-  face frame off the face) gives no reading: the last angles are held, and after :data:`TIP_MISSES` such frames
-  in a row the tip is taken afresh from the next frame.
+- **The tip's shift.** Seen along the line of sight under weak perspective, a point ``z`` proud of the eye centres
+  moves ``z sin(yaw)`` sideways and ``z sin(pitch)`` up or down against them, while the eye distance ``D`` shrinks
+  only as ``cos(yaw)``; so in face units (the eye distance) the tip moves ``k sin(angle)`` from its place in a frontal
+  face, with ``k = z / D`` (:data:`NOSE_DEPTH` sideways, :data:`TIP_DEPTH` up and down). The tip and nostrils
+  (:data:`TIP_REGION`) are resampled upright in the face frame (:data:`TIP_SAMPLES_PER_UNIT`; a face of many pixels to
+  a sample is first halved by Gaussian pyramid levels) and their detail (the grey blurred over the finer of
+  :data:`TIP_SIGMA` less its blur over the wider: the nostrils, the tip's highlight, the sides' edges, not the light's
+  slope across the face) is found in each frame by normalised cross-correlation with a running reference, within
+  :data:`TIP_SEARCH` of where it was last read sideways and of its place in the first frame measured up and down
+  (never more than :data:`TIP_REACH` from that place). The place is then taken from the first frame's tip where that
+  matches (:data:`MIN_FIRST_MATCH`) within :data:`TIP_REFINE` of it, to a fraction of a sample by a parabola through
+  the best match and its neighbours along each axis, and only such a tip is blended into the running reference (at
+  :data:`TIP_LEARN`: the nose's look changes as the head turns and nods, and the nostrils show and hide; the first tip
+  anchors it). A match with the running reference under :data:`MIN_TIP_MATCH` (the tip hidden, the face frame off the
+  face) gives no reading: the last angles are held, and after :data:`TIP_MISSES` such frames in a row the tip is taken
+  afresh from the next frame.
 - **The neutral.** The reference frame need not face the camera, noses and lights are not symmetric, where
   the eye centres are found on a face differs between people, and the camera may look from above or below:
   the neutral shift is, per axis, the running median of the shifts of the last :data:`NEUTRAL_FRAMES`
@@ -40,15 +40,21 @@ import math
 import cv2
 import numpy as np
 
-__all__ = ["TIP_REGION", "TIP_SAMPLES_PER_UNIT", "TIP_SIGMA", "TIP_SEARCH", "MIN_TIP_MATCH", "MIN_FIRST_MATCH",
-           "TIP_REFINE", "TIP_LEARN", "TIP_MISSES", "NOSE_DEPTH", "TIP_DEPTH", "NEUTRAL_FRAMES", "MEASURE_EVERY",
-           "LOOK_SHARE", "face_to_image", "tip_detail", "tip_window", "tip_shift", "NoseTurn"]
+__all__ = ["TIP_REGION", "TIP_SAMPLES_PER_UNIT", "TIP_SIGMA", "TIP_SEARCH", "TIP_REACH", "MIN_TIP_MATCH",
+           "MIN_FIRST_MATCH", "TIP_REFINE", "TIP_LEARN", "TIP_MISSES", "NOSE_DEPTH", "TIP_DEPTH", "NEUTRAL_FRAMES",
+           "MEASURE_EVERY", "LOOK_SHARE", "face_to_image", "tip_detail", "tip_window", "tip_shift", "NoseTurn"]
 
 # Constants                      unit                what it is
 TIP_REGION = (-0.12, 0.55, 0.12, 0.83)  # face units  (x0, y0, x1, y1): the nose's tip and nostrils
 TIP_SAMPLES_PER_UNIT = 50.0      # samples / unit    grey samples of the tip's region per face unit
 TIP_SIGMA = (0.01, 0.08)         # face units        Gaussian blurs of the tip's detail: the noise's, the light's
-TIP_SEARCH = 0.3                 # face units        farthest the tip is sought from its place in the reference
+TIP_SEARCH = 0.3                 # face units        farthest the tip is sought from where it was last read
+#                                                    (sideways) and from its place in the reference (up and down)
+#: Face units: the farthest the tip is read from its place in the reference, each way. The tip moves
+#: :data:`NOSE_DEPTH` sin(yaw) sideways, and the reference need not face the camera: sought only within
+#: :data:`TIP_SEARCH` of the reference's place, a performer's face turned 30 degrees either way
+#: (``benchmarks/eval_turned.py``; MediaPipe's yaw spread 13.6 degrees) had its tip held at the search's edge.
+TIP_REACH = 0.5
 MIN_TIP_MATCH = 0.7              # correlation       least match of the tip with the running reference for a reading
 MIN_FIRST_MATCH = 0.5            # correlation       least match of the first frame's tip to place the tip and learn
 TIP_REFINE = 0.05                # face units        farthest the first reference's match is sought from the
@@ -98,10 +104,10 @@ def face_to_image(A: np.ndarray, S_px: np.ndarray, px: float, origin: tuple[floa
 
 def tip_detail(rgb: np.ndarray, M: np.ndarray) -> np.ndarray:
     """The detail (float32, rows down the face, :data:`TIP_SAMPLES_PER_UNIT` per face unit) of
-    :data:`TIP_REGION` grown by :data:`TIP_SEARCH` on every side, of the frame ``rgb`` (H, W, 3) uint8 in the
+    :data:`TIP_REGION` grown by :data:`TIP_REACH` on every side, of the frame ``rgb`` (H, W, 3) uint8 in the
     face frame ``M`` (face units -> image pixels; samples half a step in from the region's edges, the frame's
     edge pixels repeated beyond it)."""
-    s, n = TIP_SEARCH, TIP_SAMPLES_PER_UNIT
+    s, n = TIP_REACH, TIP_SAMPLES_PER_UNIT
     x0, y0, x1, y1 = TIP_REGION[0] - s, TIP_REGION[1] - s, TIP_REGION[2] + s, TIP_REGION[3] + s
     step = 1.0 / n
     size = (int(round((x1 - x0) * n)), int(round((y1 - y0) * n)))
@@ -139,7 +145,7 @@ def tip_detail(rgb: np.ndarray, M: np.ndarray) -> np.ndarray:
 
 def tip_window() -> tuple[int, int, int, int]:
     """The samples (x0, y0, x1, y1) of :data:`TIP_REGION` in :func:`tip_detail`'s array, at no shift."""
-    n, s = TIP_SAMPLES_PER_UNIT, TIP_SEARCH
+    n, s = TIP_SAMPLES_PER_UNIT, TIP_REACH
     x0, y0, x1, y1 = TIP_REGION
     a = int(round(s * n))
     return a, a, a + int(round((x1 - x0) * n)), a + int(round((y1 - y0) * n))
@@ -158,11 +164,12 @@ def _spread(a: np.ndarray) -> float:
 
 
 def tip_shift(detail: np.ndarray, reference: np.ndarray, near: tuple[float, float] | None = None,
-              reach: float = TIP_SEARCH) -> tuple[float, float, float]:
+              reach: float | tuple[float, float] = TIP_SEARCH) -> tuple[float, float, float]:
     """Where the ``reference`` tip (the :func:`tip_window` of an earlier :func:`tip_detail`) lies in this
     frame's ``detail``: its shift (dx, dy) face units from the reference's place, and the match there
-    (normalised correlation, -1..1), the best within ``reach`` face units of the shift ``near`` (default the
-    whole search, about no shift); (0, 0, 0) where either has no detail."""
+    (normalised correlation, -1..1), the best within ``reach`` face units (either way; or (sideways, up and
+    down)) of the shift ``near`` (default no shift; the places searched end :data:`TIP_REACH` from it); (0, 0, 0)
+    where either has no detail."""
     if not (_spread(detail) > 1e-6 and _spread(reference) > 1e-6):
         return 0.0, 0.0, 0.0
     n = TIP_SAMPLES_PER_UNIT
@@ -170,11 +177,12 @@ def tip_shift(detail: np.ndarray, reference: np.ndarray, near: tuple[float, floa
     th, tw = reference.shape
     h, w = detail.shape[0] - th + 1, detail.shape[1] - tw + 1          # the places the tip may lie at
     cx, cy = (a, b) if near is None else (a + near[0] * n, b + near[1] * n)
-    r = reach * n
+    rx, ry = (reach, reach) if np.isscalar(reach) else reach
+    rx, ry = rx * n, ry * n
     # the places within reach (kx0..kx1, ky0..ky1), and one more on each side, where there is one, for the
     # parabolas
-    kx0, kx1 = max(int(np.ceil(cx - r)), 0), min(int(np.floor(cx + r)), w - 1)
-    ky0, ky1 = max(int(np.ceil(cy - r)), 0), min(int(np.floor(cy + r)), h - 1)
+    kx0, kx1 = max(int(np.ceil(cx - rx)), 0), min(int(np.floor(cx + rx)), w - 1)
+    ky0, ky1 = max(int(np.ceil(cy - ry)), 0), min(int(np.floor(cy + ry)), h - 1)
     if kx1 < kx0 or ky1 < ky0:
         return 0.0, 0.0, 0.0
     x0, x1, y0, y1 = max(kx0 - 1, 0), min(kx1 + 1, w - 1), max(ky0 - 1, 0), min(ky1 + 1, h - 1)
@@ -228,14 +236,20 @@ class NoseTurn:
         self._first: np.ndarray | None = None                               # the first frame's tip
         self._running: np.ndarray | None = None                             # the running reference
         self._last = np.zeros(2)                                            # (yaw, pitch) last read, radians
+        self._shift: tuple[float, float] | None = None                      # the tip's (dx, dy) last read
         self._misses = 0                                                    # measured frames in a row unread
 
     def _forget(self) -> None:
         """Forget the tip's references and the neutrals (the tip is taken afresh from the next frame)."""
         for m in self._neutral:
             m.reset()
-        self._first = self._running = None
+        self._first = self._running = self._shift = None
         self._misses = 0
+
+    def unfollow(self) -> None:
+        """Seek the next tip about the reference's place again, not sideways from where it was last read (the face
+        is being found anew: its frame may have jumped)."""
+        self._shift = None
 
     @property
     def due(self) -> bool:
@@ -264,7 +278,10 @@ class NoseTurn:
                 return self._last.copy()
             self._first = np.ascontiguousarray(detail[y0:y1, x0:x1])
             self._running = self._first.copy()
-        dx, dy, match = tip_shift(detail, self._running)
+        # sought within TIP_SEARCH sideways of where it was last read (a turn goes far), up and down of the
+        # reference's place
+        near = None if self._shift is None else (self._shift[0], 0.0)
+        dx, dy, match = tip_shift(detail, self._running, near)
         if match < MIN_TIP_MATCH:
             self._misses += 1
             if self._misses >= TIP_MISSES:
@@ -281,6 +298,7 @@ class NoseTurn:
             seen = detail[y0 + j:y1 + j, x0 + i:x1 + i]
             if seen.shape == self._running.shape:
                 self._running += TIP_LEARN * (seen - self._running)
+        self._shift = (dx, dy)
         for k, (d, depth) in enumerate(((dx, NOSE_DEPTH), (dy, TIP_DEPTH))):
             neutral = self._neutral[k].add(d)
             self._last[k] = math.asin(min(max((d - neutral) / depth, -1.0), 1.0))

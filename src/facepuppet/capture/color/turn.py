@@ -61,8 +61,10 @@ class HeadTurn:
         self._ms: int | None = None         # time of the last reading (None: the filter starts afresh)
 
     def restart(self) -> None:
-        """The next reading starts the filter afresh (the face is being found anew; the nose's tip is kept)."""
+        """The next reading starts the filter afresh (the face is being found anew; the nose's tip is kept, sought
+        about its reference's place)."""
         self._ms = None
+        self._nose.unfollow()
 
     def __call__(self, timestamp_ms: int, rgb: np.ndarray, seen: tuple[np.ndarray, np.ndarray, np.ndarray] | None
                  ) -> np.ndarray | None:
