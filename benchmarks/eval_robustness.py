@@ -55,6 +55,10 @@ Drawn on the face (around MediaPipe's curves of each frame; ``drawn.py``):
 - ``sleeve``: a dark sleeve passing down across the upper face in 21 frames of every 120 (0.7 s every 4 s at 30
   frames a second: something passing in front of the face; the eyes hidden, the face lost and found again).
 
+Re-posed (``turned.py``): ``turned``, the face turning (yaw) and nodding (pitch) by a sweep of up to
+:data:`TURNED` degrees either way, its mesh of MediaPipe's 3-D landmarks rotated and warped, hair and background
+kept.
+
 Two or more conditions at once (ordinary footage rarely has one thing wrong): a variant may be a chain of names
 joined by ``+``, applied in order to each frame: the first may be any copy above, the rest are the per-frame
 ones (``dim`` ... ``lamp_right``). ``wood+warm`` is the face before wood with face and wall in one warm light,
@@ -68,7 +72,8 @@ The bars of the shared clips are NME <= 0.05, jitter ratio <= 1.5, coverage >= 0
 
 Run: ``python benchmarks/eval_robustness.py [--clips performer_a performer_c] [--variants dim warm noisy small
 face80 cool rolled mirrored portrait darker deep lowres backlit haze long short grey hd sidelit toplit lamp_left
-lamp_right wood beige skin_object poster stage_hand beard glasses sleeve | --compounds] [--assets PATH] [--jobs 2]``
+lamp_right wood beige skin_object poster stage_hand beard glasses sleeve turned | --compounds] [--assets PATH]
+[--jobs 2]``
 (about 20 s per copy of a or c on one core, MediaPipe's reference included; ``performer_b_exaggerated`` is
 three times as long).
 """
@@ -88,12 +93,17 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import drawn  # noqa: E402  (this folder's module of things drawn on the face)
+import turned  # noqa: E402  (this folder's module of faces re-posed)
 
 ROOT = Path(__file__).resolve().parents[1]
 VARIANTS = ("dim", "warm", "noisy", "small", "face80", "cool", "rolled", "mirrored", "portrait", "darker", "deep",
             "lowres", "backlit", "haze", "long", "short", "grey", "hd", "sidelit", "toplit", "lamp_left", "lamp_right")
 BACKGROUNDS = ("wood", "beige", "skin_object", "poster", "stage_hand")
 DRAWN = tuple(drawn.DRAWN)
+REPOSED = ("turned",)
+#: The ``turned`` copy's largest yaw and pitch put in either way, degrees (:func:`turned.sweep`; MediaPipe reads
+#: about 0.6 of them: about 18 and 9 degrees).
+TURNED = (30.0, 15.0)
 #: Chains of two or three conditions (``--compounds``): a webcam's noisy, JPEG-coded stream in a dark, warm or cool
 #: room, a phone's HD stream in a dark room, a wall of the face's colour in the same warm light, glasses on a small
 #: or deep-skinned face, and so on.
@@ -366,8 +376,8 @@ def composited(src: Path, variant: str, model: str):
 
 def write_copy(src: Path, variant: str, out: Path, model: str | None = None) -> None:
     """Write the ``variant`` copy of the video ``src`` to ``out`` (MPEG-4, same rate, same size but for
-    ``lowres``; a chain ``a+b+...`` applies its copies in order); the background and drawn copies and ``face80``
-    need MediaPipe's ``model`` file."""
+    ``lowres``; a chain ``a+b+...`` applies its copies in order); the background, drawn and turned copies and
+    ``face80`` need MediaPipe's ``model`` file."""
     import cv2
 
     first, *rest = variant.split("+")
@@ -376,7 +386,8 @@ def write_copy(src: Path, variant: str, out: Path, model: str | None = None) -> 
     rng = np.random.default_rng(0)
     writer = None
     scenes = composited(src, first, model) if first in BACKGROUNDS else (
-        drawn.DRAWN[first](src, model) if first in DRAWN else None)
+        drawn.DRAWN[first](src, model) if first in DRAWN else (
+            (rgb for rgb, _ in turned.turned_frames(src, model, *TURNED)) if first in REPOSED else None))
     alter = rest if scenes is not None else [first, *rest]
     unit = face_unit(src, model) if "face80" in alter else None
     while True:
@@ -429,7 +440,7 @@ def variant_name(text: str) -> str:
     :class:`argparse.ArgumentTypeError`."""
     parts = text.split("+")
     for i, part in enumerate(parts):
-        known = VARIANTS + BACKGROUNDS + DRAWN if i == 0 else VARIANTS
+        known = VARIANTS + BACKGROUNDS + DRAWN + REPOSED if i == 0 else VARIANTS
         if part not in known:
             where = "" if len(parts) == 1 else f" (part {i + 1} of {text!r}: after the first, only per-frame copies)"
             raise argparse.ArgumentTypeError(f"unknown copy {part!r}{where}; choose from {', '.join(known)}")
@@ -439,7 +450,7 @@ def variant_name(text: str) -> str:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--clips", nargs="+", default=["performer_a", "performer_c"])
-    ap.add_argument("--variants", nargs="+", type=variant_name, default=list(VARIANTS + BACKGROUNDS + DRAWN),
+    ap.add_argument("--variants", nargs="+", type=variant_name, default=list(VARIANTS + BACKGROUNDS + DRAWN + REPOSED),
                     help="copies, or chains of them joined by '+' (default: every single copy)")
     ap.add_argument("--compounds", action="store_true", help=f"measure the chains {' '.join(COMPOUNDS)} instead")
     ap.add_argument("--assets", default=str(ROOT.parent / "shared" / "assets"))

@@ -19,9 +19,10 @@ _spec.loader.exec_module(robustness)
 
 
 def test_a_chain_names_any_copy_first_and_per_frame_ones_after():
-    for chain in ("wood+warm", "dim+noisy", "warm+noisy+lowres", "glasses+deep", "stage_hand") + robustness.COMPOUNDS:
+    for chain in ("wood+warm", "dim+noisy", "warm+noisy+lowres", "glasses+deep", "stage_hand", "turned",
+                  "turned+dim") + robustness.COMPOUNDS:
         assert robustness.variant_name(chain) == chain
-    for bad in ("noisy+wood", "warm+glasses", "foo", "dim+", "dim++noisy"):
+    for bad in ("noisy+wood", "warm+glasses", "dim+turned", "foo", "dim+", "dim++noisy"):
         with pytest.raises(argparse.ArgumentTypeError):
             robustness.variant_name(bad)
 
