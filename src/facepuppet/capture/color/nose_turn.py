@@ -164,12 +164,11 @@ def _spread(a: np.ndarray) -> float:
 
 
 def tip_shift(detail: np.ndarray, reference: np.ndarray, near: tuple[float, float] | None = None,
-              reach: float | tuple[float, float] = TIP_SEARCH) -> tuple[float, float, float]:
+              reach: float = TIP_SEARCH) -> tuple[float, float, float]:
     """Where the ``reference`` tip (the :func:`tip_window` of an earlier :func:`tip_detail`) lies in this
     frame's ``detail``: its shift (dx, dy) face units from the reference's place, and the match there
-    (normalised correlation, -1..1), the best within ``reach`` face units (either way; or (sideways, up and
-    down)) of the shift ``near`` (default no shift; the places searched end :data:`TIP_REACH` from it); (0, 0, 0)
-    where either has no detail."""
+    (normalised correlation, -1..1), the best within ``reach`` face units of the shift ``near`` (default no
+    shift; the places searched end :data:`TIP_REACH` from it); (0, 0, 0) where either has no detail."""
     if not (_spread(detail) > 1e-6 and _spread(reference) > 1e-6):
         return 0.0, 0.0, 0.0
     n = TIP_SAMPLES_PER_UNIT
@@ -177,12 +176,11 @@ def tip_shift(detail: np.ndarray, reference: np.ndarray, near: tuple[float, floa
     th, tw = reference.shape
     h, w = detail.shape[0] - th + 1, detail.shape[1] - tw + 1          # the places the tip may lie at
     cx, cy = (a, b) if near is None else (a + near[0] * n, b + near[1] * n)
-    rx, ry = (reach, reach) if np.isscalar(reach) else reach
-    rx, ry = rx * n, ry * n
+    r = reach * n
     # the places within reach (kx0..kx1, ky0..ky1), and one more on each side, where there is one, for the
     # parabolas
-    kx0, kx1 = max(int(np.ceil(cx - rx)), 0), min(int(np.floor(cx + rx)), w - 1)
-    ky0, ky1 = max(int(np.ceil(cy - ry)), 0), min(int(np.floor(cy + ry)), h - 1)
+    kx0, kx1 = max(int(np.ceil(cx - r)), 0), min(int(np.floor(cx + r)), w - 1)
+    ky0, ky1 = max(int(np.ceil(cy - r)), 0), min(int(np.floor(cy + r)), h - 1)
     if kx1 < kx0 or ky1 < ky0:
         return 0.0, 0.0, 0.0
     x0, x1, y0, y1 = max(kx0 - 1, 0), min(kx1 + 1, w - 1), max(ky0 - 1, 0), min(ky1 + 1, h - 1)
