@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from eval_head_pose import ANGLES, ASSETS, CLIPS, track  # noqa: E402
+from eval_head_pose import ANGLES, ASSETS, CLIPS, scores, track  # noqa: E402
 from eval_head_turns import curve_error  # noqa: E402
 from turned import turned_frames  # noqa: E402
 
@@ -65,22 +65,22 @@ def main(argv: list[str] | None = None) -> int:
             if len(frames) >= args.frames:
                 break
         added = np.array(added)
+        fps = clip_rate(clip)
         if args.save:
-            save(frames, args.save / f"{clip.stem}_turned.mp4")
-        mp_valid, mp_curves, _, mp_angles = track("mediapipe", {"model_path": model}, frames, 30.0)
+            save(frames, args.save / f"{clip.stem}_turned.mp4", fps)
+        mp_valid, mp_curves, _, mp_angles = track("mediapipe", {"model_path": model}, frames, fps)
         put = [np.corrcoef(np.degrees(mp_angles[mp_valid, k]), added[mp_valid, k])[0, 1]
                if added[mp_valid, k].std() > 1e-9 else float("nan") for k in range(2)]
         print(f"{clip.name}, turned {args.yaw:g} / {args.pitch:g} deg ({len(frames)} frames): MediaPipe on the "
               f"copy against the sweep put in, r yaw {put[0]:.2f}, pitch {put[1]:.2f}")
-        valid, curves, _, angles = track("color", {}, frames, 30.0)
+        valid, curves, _, angles = track("color", {}, frames, fps)
         keep = mp_valid & valid
         print(f"  colour tracker, built-in profile: coverage {valid.mean():.3f} "
               f"(MediaPipe {mp_valid.mean():.3f})")
-        for k, name in enumerate(ANGLES):
+        for k, (name, (r, mae)) in enumerate(zip(ANGLES, scores(angles, mp_angles, keep), strict=True)):
             a, b = np.degrees(angles[keep, k]), np.degrees(mp_angles[keep, k])
-            r = float(np.corrcoef(a, b)[0, 1]) if a.std() > 1e-9 and b.std() > 1e-9 else float("nan")
             slope = float(np.polyfit(b, a, 1)[0]) if b.std() > 1e-9 else float("nan")
-            print(f"  {name:5s}: r {r:5.2f}, MAE {np.abs(a - b).mean():5.2f}, slope {slope:5.2f} "
+            print(f"  {name:5s}: r {r:5.2f}, MAE {mae:5.2f}, slope {slope:5.2f} "
                   f"(reference spread {b.std():.1f})")
         nme = curve_error(curves[keep], mp_curves[keep])
         far = np.abs(np.degrees(added[keep, 0])) > TURNED
@@ -89,13 +89,21 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def save(frames: list[np.ndarray], out: Path) -> None:
-    """Write RGB frames to ``out`` (MPEG-4, 30 /s), through a temporary name."""
+def clip_rate(clip: Path) -> float:
+    """The frame rate of the video ``clip``."""
+    from facepuppet.io.frames import open_media
+
+    with open_media(clip) as src:
+        return src.fps
+
+
+def save(frames: list[np.ndarray], out: Path, fps: float) -> None:
+    """Write RGB frames to ``out`` (MPEG-4 at ``fps``), through a temporary name."""
     import cv2
 
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(out.stem + ".part.mp4")
-    writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*"mp4v"), 30.0, frames[0].shape[1::-1])
+    writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*"mp4v"), fps, frames[0].shape[1::-1])
     for rgb in frames:
         writer.write(cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
     writer.release()

@@ -58,6 +58,12 @@ def mesh(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return d.simplices.astype(np.int64), np.unique(d.convex_hull)
 
 
+def _twice_area(t: np.ndarray) -> float:
+    """Twice the signed area of the triangle ``t`` (3, 2) (positive: its corners run counter-clockwise on the
+    image, y down)."""
+    return float((t[1, 0] - t[0, 0]) * (t[2, 1] - t[0, 1]) - (t[2, 0] - t[0, 0]) * (t[1, 1] - t[0, 1]))
+
+
 def turn(rgb: np.ndarray, P: np.ndarray, triangles: np.ndarray, outline: np.ndarray, yaw: float,
          pitch: float) -> np.ndarray:
     """``rgb`` (H, W, 3) uint8 with the face of landmarks ``P`` (N, 3: x, y, depth, image pixels) turned by
@@ -71,9 +77,8 @@ def turn(rgb: np.ndarray, P: np.ndarray, triangles: np.ndarray, outline: np.ndar
     order = np.argsort(-Q[triangles, 2].mean(axis=1), kind="stable")     # the farthest first
     for t in triangles[order]:
         src, dst = P[t, :2].astype(np.float32), Q[t, :2].astype(np.float32)
-        area = (dst[1, 0] - dst[0, 0]) * (dst[2, 1] - dst[0, 1]) - (dst[2, 0] - dst[0, 0]) * (dst[1, 1] - dst[0, 1])
-        before = (src[1, 0] - src[0, 0]) * (src[2, 1] - src[0, 1]) - (src[2, 0] - src[0, 0]) * (src[1, 1] - src[0, 1])
-        if abs(area) < 2 * MIN_AREA or area * before <= 0:                # edge-on or turned away
+        area = _twice_area(dst)
+        if abs(area) < 2 * MIN_AREA or area * _twice_area(src) <= 0:      # edge-on or turned away
             continue
         x0, y0 = np.floor(dst.min(axis=0)).astype(int)
         x1, y1 = np.ceil(dst.max(axis=0)).astype(int) + 1
@@ -90,9 +95,10 @@ def turn(rgb: np.ndarray, P: np.ndarray, triangles: np.ndarray, outline: np.ndar
     return out
 
 
-def face_points(src: Path, model: str) -> Iterator[tuple[np.ndarray, np.ndarray | None]]:
+def face_points(src: Path, model: str) -> Iterator[tuple[np.ndarray, np.ndarray | None, float]]:
     """Each frame of ``src`` (RGB uint8) with MediaPipe's landmarks of its face (478, 3) in image pixels (the
-    depth times :data:`DEPTH_SCALE`), or None where it finds none (MediaPipe's model file ``model``, video mode)."""
+    depth times :data:`DEPTH_SCALE`), or None where it finds none (MediaPipe's model file ``model``, video mode),
+    and the clip's frame rate."""
     import mediapipe as mp
     from mediapipe.tasks.python import BaseOptions, vision
 
@@ -105,18 +111,19 @@ def face_points(src: Path, model: str) -> Iterator[tuple[np.ndarray, np.ndarray 
             r = lm.detect_for_video(mp.Image(image_format=mp.ImageFormat.SRGB, data=np.ascontiguousarray(rgb)),
                                     int(round(i * 1000 / frames.fps)))
             if not r.face_landmarks:
-                yield rgb, None
+                yield rgb, None, frames.fps
                 continue
             h, w = rgb.shape[:2]
-            yield rgb, np.array([(p.x * w, p.y * h, p.z * w * DEPTH_SCALE) for p in r.face_landmarks[0]])
+            yield rgb, np.array([(p.x * w, p.y * h, p.z * w * DEPTH_SCALE) for p in r.face_landmarks[0]]), frames.fps
 
 
-def turned_frames(src: Path, model: str, yaw_deg: float, pitch_deg: float, phase: float = 0.0,
-                  fps: float = 30.0) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-    """Each frame of ``src`` turned by :func:`sweep` (``yaw_deg``, ``pitch_deg`` either way), with the (2,)
-    radians of yaw and pitch added to it (zeros where no face was found and the frame is as filmed)."""
+def turned_frames(src: Path, model: str, yaw_deg: float, pitch_deg: float, phase: float = 0.0
+                  ) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """Each frame of ``src`` turned by :func:`sweep` (``yaw_deg``, ``pitch_deg`` either way, at the clip's frame
+    rate), with the (2,) radians of yaw and pitch added to it (zeros where no face was found and the frame is as
+    filmed)."""
     triangles = outline = None
-    for i, (rgb, P) in enumerate(face_points(src, model)):
+    for i, (rgb, P, fps) in enumerate(face_points(src, model)):
         if P is None:
             yield rgb, np.zeros(2)
             continue

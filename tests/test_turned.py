@@ -48,7 +48,7 @@ def test_the_rotation_is_a_yaw_then_a_pitch():
 def test_no_turn_leaves_the_frame_as_it_was():
     rng = np.random.default_rng(1)
     rgb = rng.integers(0, 256, (240, 240, 3), dtype=np.uint8)
-    P = _plane() + np.r_[0.0, 0.0, 0.0] * 0
+    P = _plane()
     P[:, 2] = rng.uniform(-30.0, 30.0, len(P))
     triangles, outline = turned.mesh(P)
     out = turned.turn(rgb, P, triangles, outline, 0.0, 0.0)

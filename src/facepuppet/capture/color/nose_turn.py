@@ -234,20 +234,20 @@ class NoseTurn:
         self._first: np.ndarray | None = None                               # the first frame's tip
         self._running: np.ndarray | None = None                             # the running reference
         self._last = np.zeros(2)                                            # (yaw, pitch) last read, radians
-        self._shift: tuple[float, float] | None = None                      # the tip's (dx, dy) last read
+        self._dx: float | None = None                                       # the tip's sideways shift last read
         self._misses = 0                                                    # measured frames in a row unread
 
     def _forget(self) -> None:
         """Forget the tip's references and the neutrals (the tip is taken afresh from the next frame)."""
         for m in self._neutral:
             m.reset()
-        self._first = self._running = self._shift = None
+        self._first = self._running = self._dx = None
         self._misses = 0
 
     def unfollow(self) -> None:
         """Seek the next tip about the reference's place again, not sideways from where it was last read (the face
         is being found anew: its frame may have jumped)."""
-        self._shift = None
+        self._dx = None
 
     @property
     def due(self) -> bool:
@@ -278,8 +278,7 @@ class NoseTurn:
             self._running = self._first.copy()
         # sought within TIP_SEARCH sideways of where it was last read (a turn goes far), up and down of the
         # reference's place
-        near = None if self._shift is None else (self._shift[0], 0.0)
-        dx, dy, match = tip_shift(detail, self._running, near)
+        dx, dy, match = tip_shift(detail, self._running, None if self._dx is None else (self._dx, 0.0))
         if match < MIN_TIP_MATCH:
             self._misses += 1
             if self._misses >= TIP_MISSES:
@@ -296,7 +295,7 @@ class NoseTurn:
             seen = detail[y0 + j:y1 + j, x0 + i:x1 + i]
             if seen.shape == self._running.shape:
                 self._running += TIP_LEARN * (seen - self._running)
-        self._shift = (dx, dy)
+        self._dx = dx
         for k, (d, depth) in enumerate(((dx, NOSE_DEPTH), (dy, TIP_DEPTH))):
             neutral = self._neutral[k].add(d)
             self._last[k] = math.asin(min(max((d - neutral) / depth, -1.0), 1.0))
